@@ -1,0 +1,14 @@
+// The pairgrasp._core extension: one bind_<area>() per area, each in its own file.
+#include "bind.hpp"
+
+#include <pairgrasp/version.hpp>
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "pairgrasp C++ core: meshes, hands, unit facets, pair index, alignment.";
+  m.def("version", &pairgrasp::version, "The library version.");
+  pairgrasp::py::bind_errors(m);
+  pairgrasp::py::bind_mesh(m);
+  pairgrasp::py::bind_hand(m);
+  pairgrasp::py::bind_surface(m);
+  pairgrasp::py::bind_alignment(m);
+}

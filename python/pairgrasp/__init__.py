@@ -1,0 +1,9 @@
+"""pairgrasp: grasp planning by pairwise-feature alignment of a gripper's contact surface with a target.
+
+Lengths are in metres, angles in radians. Errors: bad argument values raise ValueError, bad files
+raise pairgrasp.FileError (a RuntimeError) naming the file.
+"""
+from ._core import *  # noqa: F401,F403
+from ._core import FileError, version  # noqa: F401
+
+__version__ = version()
