@@ -9,6 +9,7 @@ PYBIND11_MODULE(_core, m) {
   pairgrasp::py::bind_errors(m);
   pairgrasp::py::bind_mesh(m);
   pairgrasp::py::bind_hand(m);
+  pairgrasp::py::bind_paint(m);
   pairgrasp::py::bind_surface(m);
   pairgrasp::py::bind_alignment(m);
 }
