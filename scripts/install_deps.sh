@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Installs what pairgrasp needs to build and test: C++ libraries from Debian, Python packages from PyPI.
+# Safe to run again; uses sudo only when not root.
+set -euo pipefail
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+
+DEBIAN_PACKAGES=(
+  build-essential cmake ninja-build pkg-config
+  libeigen3-dev libfcl-dev libccd-dev libassimp-dev liburdfdom-dev
+  libgtest-dev libbenchmark-dev nlohmann-json3-dev
+)
+
+missing=()
+for p in "${DEBIAN_PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+# cmake and ninja may come from PyPI instead (a newer cmake on PATH is fine).
+if command -v cmake >/dev/null 2>&1; then missing=("${missing[@]/cmake}"); fi
+if command -v ninja >/dev/null 2>&1; then missing=("${missing[@]/ninja-build}"); fi
+pkgs=()
+for p in "${missing[@]}"; do [ -n "$p" ] && pkgs+=("$p"); done
+if [ "${#pkgs[@]}" -gt 0 ]; then
+  echo "install_deps: apt-get install ${pkgs[*]}"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${pkgs[@]}" >/dev/null
+fi
+
+PYTHON="${PYTHON:-python3}"
+"$PYTHON" -m pip install -q --disable-pip-version-check \
+  "scikit-build-core>=0.10" "pybind11>=2.12" "numpy>=1.24" "scipy>=1.10" "matplotlib>=3.6" "pytest>=7"
+echo "install_deps: done"
