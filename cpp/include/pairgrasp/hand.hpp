@@ -4,7 +4,10 @@
 /// the active (contact) surface of each link and the approach direction.
 ///
 /// Frames: every pose returned here is expressed in the **wrist frame** (the spec's
-/// `wrist_link`), not the URDF root. `Hand::root_to_wrist()` gives the fixed offset between them.
+/// `wrist_link`), not the URDF root. `Hand::root_to_wrist()` gives the fixed offset between them
+/// (the wrist must be attached to the URDF root through fixed joints only).
+///
+/// The spec format is documented in models/README.md ("Hand spec format").
 #include <pairgrasp/mesh.hpp>
 #include <pairgrasp/types.hpp>
 
@@ -26,16 +29,17 @@ struct DofJoint {
 struct Dof {
   std::string name;
   std::vector<DofJoint> joints;  ///< joints it drives (mimic joints of these follow too)
-  double lower = 0.0;            ///< lower limit (rad or m)
-  double upper = 0.0;            ///< upper limit (rad or m)
-  double step = 0.25;            ///< default sampling step (rad or m)
+  double lower = 0.0;            ///< lower limit (rad, or m when `linear`)
+  double upper = 0.0;            ///< upper limit (rad, or m when `linear`)
+  double step = 0.25;            ///< default sampling step (rad, or m when `linear`)
+  bool linear = false;           ///< drives prismatic joints: values in metres, else radians
 };
 
 /// A link with geometry, in its own link frame.
 struct HandLink {
   std::string name;
   Mesh mesh;                   ///< collision geometry (visual if none), link frame, metres
-  std::vector<int> active_faces;  ///< faces of `mesh` that form the contact surface
+  std::vector<int> active_faces;  ///< faces of `mesh` that form the contact surface (ascending)
   bool active() const { return !active_faces.empty(); }
 };
 
@@ -49,55 +53,86 @@ struct Constellation {
 
 /// How constellation samples are placed.
 enum class ConstellationMode {
-  PerLink,  ///< one sample per active link (the paper: 7 for the Barrett hand)
-  Area,     ///< evenly spread samples at a given spacing over every active surface
+  /// One sample per active link (the paper: 7 for the Barrett hand). The sample is the point
+  /// of the link's active surface nearest to the area-weighted centroid of its active faces
+  /// (the centroid itself on a flat surface, a point on the surface when it is curved), with
+  /// the normalised area-weighted mean of the active faces' normals (the normal of the face
+  /// holding the point if that mean vanishes, e.g. on a closed tube).
+  PerLink,
+  /// Evenly spread samples at a given spacing over every active surface: the unit facets of
+  /// tessellate(active sub-mesh, spacing), centres and normals. Computed once per link and
+  /// spacing in the link frame, cached, then transformed.
+  Area,
 };
 
 /// Options for Hand::load().
 struct HandLoadOptions {
-  /// Directories searched for `package://NAME/...` URIs: NAME is looked up as a sub-directory of
-  /// each (and the directory holding the URDF is tried as the package itself).
+  /// Directories searched for `package://NAME/REST` mesh URIs, before the spec's own
+  /// "package_paths" (which are relative to the spec file). For each directory D in order,
+  /// D/NAME/REST is tried, then D/REST when D itself is named NAME. Relative entries here are
+  /// taken from the current directory.
   std::vector<std::string> package_paths;
 };
 
 /// A hand: kinematic tree, DOF map, link geometry and active surfaces.
+///
+/// Immutable after load() and safe to use from several threads at once (the Area-mode sample
+/// cache is guarded). Copies share the loaded model.
 class Hand {
  public:
   /// Loads the hand spec at `spec_path` (JSON) and the URDF it names. Throws FileError naming
-  /// the spec, the URDF or the mesh at fault and the field.
+  /// the spec, the URDF or the mesh at fault and the field (e.g. "dofs[2].joints[0].joint: no
+  /// joint 'x' in bh.urdf").
   static Hand load(const std::string& spec_path, const HandLoadOptions& options = {});
 
+  /// The spec's "name" (the URDF robot name when the spec has none).
   const std::string& name() const;
+  /// The spec file this hand was loaded from, and the URDF it names.
+  const std::string& spec_path() const;
+  const std::string& urdf_path() const;
   const std::vector<Dof>& dofs() const;
   std::vector<std::string> dof_names() const;
+  /// Limits and default sampling steps of the DOFs (rad, or m for linear DOFs).
   Eigen::VectorXd dof_lower() const;
   Eigen::VectorXd dof_upper() const;
   Eigen::VectorXd dof_step() const;
-  /// Links with geometry, in a fixed order (the URDF's depth-first order from the root).
+  /// Links with geometry, in a fixed order: depth-first from the URDF root, children in the
+  /// order their joints appear in the URDF file.
   const std::vector<HandLink>& links() const;
+  /// Index of a link in links(), or -1 when it has no geometry or does not exist.
+  int link_index(const std::string& link_name) const;
+  /// Every URDF link (with or without geometry), in the same depth-first order.
+  std::vector<std::string> link_names() const;
   /// Name of the wrist link (the frame poses are expressed in).
   const std::string& wrist_link() const;
   /// Approach direction in the wrist frame (unit): the direction the palm faces.
   const Eigen::Vector3d& approach() const;
-  /// Pose of the wrist frame in the URDF root frame.
+  /// Pose of the wrist frame in the URDF root frame (fixed: identity when the wrist is the root).
   Pose root_to_wrist() const;
-  /// Names of every non-fixed URDF joint, in the order joint_values() uses.
+  /// Names of every non-fixed URDF joint (mimic joints included), in the order joint_values()
+  /// uses: depth-first from the root like link_names().
   std::vector<std::string> joint_names() const;
 
-  /// Values of every non-fixed joint (mimics applied) for a DOF vector.
-  /// Throws std::invalid_argument for a wrong size, NaN, or a value outside the limits unless
-  /// `clamp` is true (then values are clamped).
+  /// Values of every non-fixed joint (mimics applied) for a DOF vector (rad or m).
+  /// Throws std::invalid_argument for a wrong size, a non-finite value, or a value outside its
+  /// DOF's limits by more than 1e-9 (the message names the DOF and its limits) unless `clamp`
+  /// is true (then values are clamped into the limits; non-finite values still throw).
   Eigen::VectorXd joint_values(const Eigen::VectorXd& dofs, bool clamp = false) const;
-  /// Pose of every link in the wrist frame, keyed by link name (every URDF link).
+  /// Pose of every URDF link in the wrist frame, keyed by link name. Errors as joint_values().
   std::map<std::string, Pose> link_transforms(const Eigen::VectorXd& dofs, bool clamp = false) const;
-  /// Poses of links() in the wrist frame, in links() order.
+  /// Poses of links() in the wrist frame, in links() order. Errors as joint_values().
   std::vector<Pose> link_poses(const Eigen::VectorXd& dofs, bool clamp = false) const;
-  /// Active-surface samples at a DOF vector. `spacing` (m) is used by ConstellationMode::Area.
+  /// Active-surface samples at a DOF vector, in the wrist frame, ordered by link (links()
+  /// order). `spacing` (m, positive and finite) is used by ConstellationMode::Area; a spacing
+  /// so small that the samples would exceed tessellate()'s facet bound throws
+  /// std::invalid_argument naming "spacing". Errors as joint_values() for `dofs`.
   Constellation constellation(const Eigen::VectorXd& dofs, ConstellationMode mode,
                               double spacing = 0.01, bool clamp = false) const;
 
   struct Impl;
+
  private:
+  explicit Hand(std::shared_ptr<const Impl> impl);
   std::shared_ptr<const Impl> impl_;
 };
 
