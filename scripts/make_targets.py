@@ -304,14 +304,13 @@ def build():
     # flask: the lip (everything at or above FLASK_OCCLUDED_ABOVE) and the mouth opening
     v, f = flask
     rm, zm = FLASK["mouth_radius"], FLASK["height"] - FLASK["mouth_depth"]
-    s = rm + 0.0005
     out["flask.paint.json"] = paint_json(
         "flask.stl", len(f), FLASK_PAINT_NOTE,
         regions=[
             {"shape": "halfspace", "point": [0.0, 0.0, FLASK_OCCLUDED_ABOVE],
              "normal": [0.0, 0.0, 1.0], "mark": "occluded"},
-            {"shape": "box", "min": [-s, -s, zm - 0.0005], "max": [s, s, FLASK["height"] + 0.001],
-             "mark": "occluded"},
+            {"shape": "cylinder", "start": [0.0, 0.0, round(zm - 0.001, 6)],
+             "end": [0.0, 0.0, FLASK["height"]], "radius": round(rm + 0.0005, 6), "mark": "occluded"},
         ])
     return out, summary
 
