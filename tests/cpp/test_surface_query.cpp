@@ -363,3 +363,133 @@ TEST(SurfaceQuery, BadInputThrows) {
   EXPECT_NO_THROW(qo.closest(Vector3d::Zero()));  // distances are defined for any mesh
   EXPECT_THROW(SurfaceQuery(Mesh{}), std::invalid_argument);
 }
+
+// ---------------------------------------------------------------- reachability masks
+
+#include <pairgrasp/reachability.hpp>
+
+namespace {
+double face_coord(const Mesh& m, int f, int axis, bool max) {
+  double v = m.vertices(m.faces(f, 0), axis);
+  for (int k = 1; k < 3; ++k)
+    v = max ? std::max(v, m.vertices(m.faces(f, k), axis)) : std::min(v, m.vertices(m.faces(f, k), axis));
+  return v;
+}
+Vector3d face_normal_of(const Mesh& m, int f) {
+  const Vector3d a = m.vertices.row(m.faces(f, 0)), b = m.vertices.row(m.faces(f, 1)),
+                 c = m.vertices.row(m.faces(f, 2));
+  return (b - a).cross(c - a).normalized();
+}
+}  // namespace
+
+TEST(Reachability, SlabOccludesExactlyTheFacesWithinReach) {
+  // A 0.1 m cube in 1 cm squares; a slab z in [0.03, 0.2] much wider than the cube cuts its top.
+  const Mesh target = tmesh::box_mesh(Vector3d::Constant(-0.05), Vector3d::Constant(0.05), 10, "cube");
+  const Mesh slab = tmesh::box_mesh(Vector3d(-0.2, -0.2, 0.03), Vector3d(0.2, 0.2, 0.2), 1, "slab");
+  for (double d : {0.0, 0.005, 0.012}) {
+    const Mask free = occluded_by(target, {slab}, d);
+    ASSERT_EQ(free.size(), target.faces.rows());
+    int occluded = 0;
+    for (int f = 0; f < target.faces.rows(); ++f) {
+      // The slab's underside z = 0.03 spans the cube, so a face is within d of the slab exactly
+      // when its highest point reaches z >= 0.03 - d (faces above lie inside the slab).
+      const bool expect_free = face_coord(target, f, 2, true) < 0.03 - d - 1e-12;
+      ASSERT_EQ(free[f], expect_free) << "face " << f << " d = " << d;
+      occluded += !expect_free;
+    }
+    EXPECT_GT(occluded, 200);  // the top (200 faces) and bands of the four sides
+  }
+}
+
+TEST(Reachability, OpenOccluderOccludesByDistanceOnly) {
+  const Mesh target = tmesh::box_mesh(Vector3d::Constant(-0.05), Vector3d::Constant(0.05), 10, "cube");
+  Points V(4, 3);
+  V << -0.2, -0.2, 0.03, 0.2, -0.2, 0.03, 0.2, 0.2, 0.03, -0.2, 0.2, 0.03;
+  Triangles F(2, 3);
+  F << 0, 1, 2, 0, 2, 3;
+  const Mesh plane = make_mesh(V, F, "plane");
+  ASSERT_FALSE(plane.closed);
+  const double d = 0.005;
+  const Mask free = occluded_by(target, {plane}, d);
+  for (int f = 0; f < target.faces.rows(); ++f) {
+    const double lo = face_coord(target, f, 2, false), hi = face_coord(target, f, 2, true);
+    const bool near = hi >= 0.03 - d - 1e-12 && lo <= 0.03 + d + 1e-12;
+    ASSERT_EQ(free[f], !near) << "face " << f;
+  }
+  // The incoming mask is ANDed in.
+  Mask start = Mask::Constant(target.faces.rows(), true);
+  start[0] = false;
+  EXPECT_FALSE(occluded_by(target, {plane}, d, start)[0]);
+}
+
+TEST(Reachability, VisibleFromMarksTheBackSideOccluded) {
+  const Mesh target = tmesh::box_mesh(Vector3d::Constant(-0.05), Vector3d::Constant(0.05), 2, "cube");
+  Points eye(1, 3);
+  eye << 1.0, 0.0, 0.0;
+  Mask free = visible_from(target, eye);
+  for (int f = 0; f < target.faces.rows(); ++f)
+    ASSERT_EQ(free[f], face_normal_of(target, f).x() > 0.5) << "face " << f;
+  Points eyes(2, 3);
+  eyes << 1.0, 0.0, 0.0, 0.0, 0.0, 1.0;  // two viewpoints: +x and +z faces seen
+  free = visible_from(target, eyes);
+  for (int f = 0; f < target.faces.rows(); ++f) {
+    const Vector3d n = face_normal_of(target, f);
+    ASSERT_EQ(free[f], n.x() > 0.5 || n.z() > 0.5) << "face " << f;
+  }
+}
+
+TEST(Reachability, VisibleFromAccountsForSelfOcclusionAndOccluders) {
+  // Two boxes in one mesh: the small one sits behind the big one seen from -x.
+  const Mesh big = tmesh::box_mesh(Vector3d::Constant(-0.05), Vector3d::Constant(0.05), 1, "big");
+  const Mesh small = tmesh::box_mesh(Vector3d(0.2, -0.02, -0.02), Vector3d(0.3, 0.02, 0.02), 1, "small");
+  const Mesh target = tmesh::merge(big, small, "two boxes");
+  Points eye(1, 3);
+  eye << -1.0, 0.0, 0.0;
+  const Mask free = visible_from(target, eye);
+  for (int f = 0; f < target.faces.rows(); ++f) {
+    const bool on_big = f < big.faces.rows();
+    ASSERT_EQ(free[f], on_big && face_normal_of(target, f).x() < -0.5) << "face " << f;
+  }
+  // An occluder wall between the eye and the target hides everything: an error that says so.
+  const Mesh wall = tmesh::box_mesh(Vector3d(-0.5, -0.5, -0.5), Vector3d(-0.4, 0.5, 0.5), 1, "wall");
+  try {
+    visible_from(target, eye, Mask(), {wall});
+    FAIL() << "expected invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("no free face left: ", 0), 0u) << e.what();
+  }
+}
+
+TEST(Reachability, BadInputAndEmptyResultsThrow) {
+  const Mesh target = tmesh::box_mesh(Vector3d::Constant(-0.05), Vector3d::Constant(0.05), 1, "cube");
+  const Mesh huge = tmesh::box_mesh(Vector3d::Constant(-1), Vector3d::Constant(1), 1, "huge");
+  auto expect_msg = [](auto&& fn, const std::string& start) {
+    try {
+      fn();
+      FAIL() << "expected invalid_argument starting with " << start;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(start, 0), 0u) << e.what();
+    }
+  };
+  expect_msg([&] { occluded_by(target, {huge}, 0.0); }, "no free face left: ");  // target inside
+  expect_msg([&] { occluded_by(target, {huge}, -1.0); }, "distance: ");
+  expect_msg([&] { occluded_by(target, {huge}, std::nan("")); }, "distance: ");
+  expect_msg([&] { occluded_by(target, {}, 0.0, Mask::Constant(3, true)); }, "free: expected 12, got 3");
+  expect_msg([&] { occluded_by(target, {}, 0.0, Mask::Constant(12, false)); }, "no free face left: ");
+  expect_msg([&] { visible_from(target, Points(0, 3)); }, "viewpoints: ");
+  Points bad(1, 3);
+  bad << 0, std::nan(""), 0;
+  expect_msg([&] { visible_from(target, bad); }, "viewpoints: row 0");
+  Points inside(1, 3);
+  inside << 0, 0, 0;  // an eye inside the box sees only back faces
+  expect_msg([&] { visible_from(target, inside); }, "no free face left: ");
+  expect_msg([&] { combine_free(Mask::Constant(12, true), Mask::Constant(11, true)); }, "b: expected 12, got 11");
+  Mask a = Mask::Constant(12, false), b = Mask::Constant(12, false);
+  a[3] = true;
+  b[4] = true;
+  expect_msg([&] { combine_free(a, b); }, "no free face left: ");
+  b[3] = true;
+  const Mask c = combine_free(a, b);
+  EXPECT_EQ(c.count(), 1);
+  EXPECT_TRUE(c[3]);
+}
