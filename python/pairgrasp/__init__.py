@@ -7,3 +7,4 @@ from ._core import *  # noqa: F401,F403
 from ._core import FileError, version  # noqa: F401
 
 __version__ = version()
+from .quality import GraspQuality, contact_frames, grasp_quality, wrench_matrix  # noqa: F401,E402
