@@ -132,7 +132,13 @@ Mesh load_mesh(const std::string& path, const MeshLoadOptions& options) {
   // Keep COLLADA's authored axes (assimp otherwise turns Z-up files to Y-up).
   importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_IGNORE_UP_DIRECTION, true);
   const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate);
-  if (!scene) throw FileError(path, std::string("cannot be read as a mesh: ") + importer.GetErrorString());
+  if (!scene) {
+    // assimp sometimes quotes the rest of the file: keep the message to its first line and 200 chars.
+    std::string why = importer.GetErrorString();
+    why = why.substr(0, why.find_first_of("\r\n"));
+    if (why.size() > 200) why = why.substr(0, 200) + "...";
+    throw FileError(path, "cannot be read as a mesh: " + why);
+  }
   if (!scene->mRootNode) throw FileError(path, "cannot be read as a mesh: the scene has no root node");
 
   // COLLADA: assimp's root node is the <visual_scene>, which has no transform of its own in the
