@@ -65,35 +65,36 @@ CellKey exact_key(const Points& v, Eigen::Index i) {
 
 // rep[i] = the vertex that referenced vertex i is welded into (i itself when it is the first of
 // its cluster), -1 for unreferenced vertices. A vertex joins the lowest-index earlier
-// representative within `tol` (Euclidean). The grid has cells of 2*tol and every cell that the
-// ball of radius tol around the vertex touches is searched, so neighbours across cell
-// boundaries are never missed.
+// representative within `tol` (Euclidean). Exact copies (STL's usual case) are merged first by a
+// hash of their coordinates; the distinct points then go through a grid with cells of 2*tol in
+// which every cell that the ball of radius tol around a point touches is searched, so
+// neighbours across cell boundaries are never missed.
 void weld(const Points& v, const std::vector<char>& referenced, double tol, std::vector<int>& rep) {
   const Eigen::Index n = v.rows();
   rep.assign(static_cast<std::size_t>(n), -1);
-  double max_abs = 0.0;
-  for (Eigen::Index i = 0; i < n; ++i)
-    if (referenced[i]) max_abs = std::max(max_abs, v.row(i).cwiseAbs().maxCoeff());
-  const double cell = 2.0 * tol;
-  const bool use_grid = tol > 0.0 && max_abs / cell < 1e15;  // cell indices fit in int64 with room
-
-  if (!use_grid) {
+  std::vector<int> distinct;
+  {
     std::unordered_map<CellKey, int, CellHash> seen;
     seen.reserve(static_cast<std::size_t>(n));
     for (Eigen::Index i = 0; i < n; ++i) {
       if (!referenced[i]) continue;
-      auto it = seen.emplace(exact_key(v, i), static_cast<int>(i)).first;
+      const auto [it, inserted] = seen.emplace(exact_key(v, i), static_cast<int>(i));
       rep[i] = it->second;
+      if (inserted) distinct.push_back(static_cast<int>(i));
     }
-    return;
   }
+  double max_abs = 0.0;
+  for (int i : distinct) max_abs = std::max(max_abs, v.row(i).cwiseAbs().maxCoeff());
+  const double cell = 2.0 * tol;
+  if (!(tol > 0.0) || !(max_abs / cell < 1e15)) return;  // exact only (cell indices must fit in int64)
 
-  std::unordered_map<CellKey, std::vector<int>, CellHash> grid;
-  grid.reserve(static_cast<std::size_t>(n));
+  // Grid of the representatives: cell -> first one, next[] chains the rest of the cell.
+  std::unordered_map<CellKey, int, CellHash> head;
+  head.reserve(distinct.size());
+  std::vector<int> next(static_cast<std::size_t>(n), -1);
   const double reach = tol * (1.0 + 1e-9);  // a hair more than tol against rounding in floor()
   const double tol2 = tol * tol;
-  for (Eigen::Index i = 0; i < n; ++i) {
-    if (!referenced[i]) continue;
+  for (int i : distinct) {
     const Eigen::RowVector3d p = v.row(i);
     std::array<std::int64_t, 3> lo{}, hi{};
     for (int a = 0; a < 3; ++a) {
@@ -104,21 +105,27 @@ void weld(const Points& v, const std::vector<char>& referenced, double tol, std:
     for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
       for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
         for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
-          auto it = grid.find(CellKey{x, y, z});
-          if (it == grid.end()) continue;
-          for (int j : it->second)
+          auto it = head.find(CellKey{x, y, z});
+          if (it == head.end()) continue;
+          for (int j = it->second; j >= 0; j = next[j])
             if ((best < 0 || j < best) && (v.row(j) - p).squaredNorm() <= tol2) best = j;
         }
     if (best >= 0) {
       rep[i] = best;
-    } else {
-      rep[i] = static_cast<int>(i);
-      const CellKey own{static_cast<std::int64_t>(std::floor(p[0] / cell)),
-                        static_cast<std::int64_t>(std::floor(p[1] / cell)),
-                        static_cast<std::int64_t>(std::floor(p[2] / cell))};
-      grid[own].push_back(static_cast<int>(i));
+      continue;
+    }
+    const CellKey own{static_cast<std::int64_t>(std::floor(p[0] / cell)),
+                      static_cast<std::int64_t>(std::floor(p[1] / cell)),
+                      static_cast<std::int64_t>(std::floor(p[2] / cell))};
+    auto [it, inserted] = head.emplace(own, i);
+    if (!inserted) {
+      next[i] = it->second;
+      it->second = i;
     }
   }
+  // Exact copies follow their first occurrence.
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (referenced[i] && rep[i] != i) rep[i] = rep[rep[i]];
 }
 
 // ----------------------------------------------------------------------------------- orientation
