@@ -1,10 +1,13 @@
 // Paint: per-face free masks from paint files or regions (pairgrasp/paint.hpp).
 #include "bind.hpp"
 
+#include <pybind11/stl/filesystem.h>
+
 #include <pairgrasp/mesh.hpp>
 #include <pairgrasp/paint.hpp>
 
 #include <cmath>
+#include <filesystem>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -218,15 +221,23 @@ Each region (PaintRegion or paint-file dict) sets the mark of every face whose c
 contains; later regions override earlier ones. ValueError for a start of the wrong size or a bad
 region. An all-occluded result is returned as is.)doc");
 
-  m.def("load_paint", &load_paint, pyb::arg("path"), pyb::arg("mesh"), pyb::call_guard<pyb::gil_scoped_release>(),
-        R"doc(Reads a paint file (JSON, see models/README.md) for `mesh`: per-face free mask, (F,) bool.
+  m.def(
+      "load_paint",
+      [](const std::filesystem::path& path, const Mesh& mesh) { return load_paint(path.string(), mesh); },
+      pyb::arg("path"), pyb::arg("mesh"), pyb::call_guard<pyb::gil_scoped_release>(),
+      R"doc(Reads a paint file (str or os.PathLike; JSON, see models/README.md) for `mesh`: per-face
+free mask, (F,) bool.
 
 Raises pairgrasp.FileError naming the file and field for a bad file (format, version, face
 count, index out of range, region fields), ValueError when the paint leaves no free face.)doc");
 
-  m.def("save_paint", &save_paint, pyb::arg("path"), pyb::arg("mesh"), pyb::arg("mask"),
-        pyb::call_guard<pyb::gil_scoped_release>(),
-        R"doc(Writes a paint file that load_paint reads back as `mask` ((F,) bool, True = free).
+  m.def(
+      "save_paint",
+      [](const std::filesystem::path& path, const Mesh& mesh, const Mask& mask) {
+        save_paint(path.string(), mesh, mask);
+      },
+      pyb::arg("path"), pyb::arg("mesh"), pyb::arg("mask"), pyb::call_guard<pyb::gil_scoped_release>(),
+      R"doc(Writes a paint file that load_paint reads back as `mask` ((F,) bool, True = free).
 
 The larger side becomes "default" and the faces of the smaller side are listed. ValueError for a
 mask of the wrong size or with no free face, pairgrasp.FileError when the file cannot be written.)doc");

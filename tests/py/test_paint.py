@@ -213,7 +213,7 @@ def test_save_then_load_gives_the_same_mask(meshes, tmp_path, p_free):
     mask = rng.random(len(m.faces)) < p_free
     mask[3] = True
     path = tmp_path / "mug.paint.json"
-    pg.save_paint(str(path), m, mask)
+    pg.save_paint(path, m, mask)  # os.PathLike and str both work
     back = pg.load_paint(str(path), m)
     assert np.array_equal(back, mask)
     doc = json.loads(path.read_text())
