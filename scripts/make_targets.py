@@ -13,7 +13,8 @@ consistently wound with outward normals, free of self-intersections (the mug's p
 with manifold3d's exact booleans). Each gets a paint file `<name>.paint.json` (format described in
 models/README.md) marking which faces a gripper may touch.
 
-The output is deterministic: running the script again rewrites byte-identical files.
+The output is deterministic: running the script again rewrites byte-identical files (the mug's
+boolean triangulation may differ between manifold3d releases; the files were made with 3.5).
 
 Usage: python3 scripts/make_targets.py [--out models/targets] [--check]
   --check  regenerate in memory and fail if the committed files differ.
