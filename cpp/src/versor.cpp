@@ -32,10 +32,6 @@ struct Hyp {
   double rms = 0.0;   // rms angle over satisfied pairings
 };
 
-double vector_angle(const Vector3d& x, const Vector3d& y) {
-  return std::atan2(x.cross(y).norm(), x.dot(y));
-}
-
 Quaterniond from_axis_angle(const Vector3d& m, double theta) {
   const double h = 0.5 * theta;
   const double s = std::sin(h);
@@ -59,29 +55,32 @@ bool axis_angle(const std::array<Pairing, 3>& p, unsigned mask, const Vector3d& 
     den += a.dot(b) - ma * mb;
     weight += std::sqrt(std::max(0.0, (1.0 - ma * ma) * (1.0 - mb * mb)));
   }
-  if (weight < 1e-12 || std::hypot(num, den) < 1e-14) return false;
+  if (weight < 1e-12 || num * num + den * den < 1e-28) return false;
   theta = std::atan2(num, den);
   return true;
 }
 
-void score(const std::array<Pairing, 3>& p, double tol, Hyp& h) {
+// Satisfied: |R.A - B| <= chord (the chord of the angle tolerance on the unit sphere); the
+// residual angle is 2 asin(|R.A - B| / 2).
+void score(const std::array<Pairing, 3>& p, double chord, Hyp& h) {
   h.s = 0;
   double sum = 0.0;
   for (int k = 0; k < 3; ++k) {
     if (!p[k].valid) continue;
-    const double ang = vector_angle(h.q * p[k].a, p[k].b);
-    if (ang <= tol) {
+    const double c2 = (h.q * p[k].a - p[k].b).squaredNorm();
+    if (c2 <= chord * chord) {
       ++h.s;
+      const double ang = 2.0 * std::asin(std::min(1.0, 0.5 * std::sqrt(c2)));
       sum += ang * ang;
     }
   }
   h.rms = h.s ? std::sqrt(sum / h.s) : 0.0;
 }
 
-unsigned satisfied_mask(const std::array<Pairing, 3>& p, double tol, const Quaterniond& q) {
+unsigned satisfied_mask(const std::array<Pairing, 3>& p, double chord, const Quaterniond& q) {
   unsigned mask = 0;
   for (int k = 0; k < 3; ++k)
-    if (p[k].valid && vector_angle(q * p[k].a, p[k].b) <= tol) mask |= 1u << k;
+    if (p[k].valid && (q * p[k].a - p[k].b).squaredNorm() <= chord * chord) mask |= 1u << k;
   return mask;
 }
 
@@ -107,16 +106,13 @@ struct HypSet {
 
 // All rotation hypotheses of one point order, scored and polished.
 void order_hypotheses(const std::array<Pairing, 3>& p, const PairPoseOptions& opt, double sin_collinear,
-                      HypSet& set) {
-  const double tol = opt.angle_tolerance;
-  const double chord = 2.0 * std::sin(0.5 * std::min(tol, kPi));
+                      int min_s, HypSet& set) {
+  const double chord = 2.0 * std::sin(0.5 * std::min(opt.angle_tolerance, kPi));
   std::array<Vector3d, 3> d;
   std::array<double, 3> dn{};
-  int nvalid = 0;
   bool all_small = true;
   for (int k = 0; k < 3; ++k) {
     if (!p[k].valid) continue;
-    ++nvalid;
     d[k] = p[k].a - p[k].b;
     dn[k] = d[k].norm();
     if (dn[k] > chord) all_small = false;
@@ -150,13 +146,11 @@ void order_hypotheses(const std::array<Pairing, 3>& p, const PairPoseOptions& op
       if (axis_angle(p, 1u << j, m, theta)) set.add(from_axis_angle(m, theta));
     }
   }
-  for (int k = 0; k < set.n; ++k) score(p, tol, set.h[k]);
+  for (int k = 0; k < set.n; ++k) score(p, chord, set.h[k]);
   // TRIAD fallback when no meeting is well conditioned (every difference parallel: the axis lies
   // in the plane of coplanar vectors; only the approximate identity / axis = A_k hypotheses are
-  // left) or no hypothesis satisfies every pairing.
-  bool full = false;
-  for (int k = 0; k < set.n; ++k) full = full || set.h[k].s == nvalid;
-  if (!full || best_sin < kTriadBelow) {
+  // left).
+  if (best_sin < kTriadBelow) {
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) {
         if (i == j || !p[i].valid || !p[j].valid) continue;
@@ -168,21 +162,21 @@ void order_hypotheses(const std::array<Pairing, 3>& p, const PairPoseOptions& op
         if (q.w() < 0) q.coeffs() = -q.coeffs();
         const int before = set.n;
         set.add(q);
-        if (set.n > before) score(p, tol, set.h[set.n - 1]);
+        if (set.n > before) score(p, chord, set.h[set.n - 1]);
       }
   }
   // Polish: least-squares angle about the hypothesis axis over the satisfied pairings.
   for (int k = 0; k < set.n; ++k) {
     Hyp& h = set.h[k];
-    if (h.s < 2) continue;
+    if (h.s < min_s) continue;
     const Vector3d v = h.q.vec();
     const double vn = v.norm();
     if (vn <= kTiny) continue;
     double theta;
-    if (!axis_angle(p, satisfied_mask(p, tol, h.q), v / vn, theta)) continue;
+    if (!axis_angle(p, satisfied_mask(p, chord, h.q), v / vn, theta)) continue;
     Hyp polished;
     polished.q = from_axis_angle(v / vn, theta);
-    score(p, tol, polished);
+    score(p, chord, polished);
     if (polished.s >= h.s && polished.rms <= h.rms) h = polished;
   }
 }
@@ -274,6 +268,8 @@ void solve_pair_pose(const Vector3d& gp0, const Vector3d& gp1, const Vector3d& g
   if (!(options.angle_tolerance > 0) || !std::isfinite(options.angle_tolerance))
     throw std::invalid_argument("angle_tolerance: expected a positive finite angle (radians), got " +
                                 std::to_string(options.angle_tolerance));
+  if (options.min_agreement < 1 || options.min_agreement > 3)
+    throw std::invalid_argument("min_agreement: expected 1..3, got " + std::to_string(options.min_agreement));
   if (!(options.collinear_tolerance >= 0) || !std::isfinite(options.collinear_tolerance))
     throw std::invalid_argument("collinear_tolerance: expected a non-negative finite angle (radians), got " +
                                 std::to_string(options.collinear_tolerance));
@@ -297,6 +293,8 @@ void solve_pair_pose(const Vector3d& gp0, const Vector3d& gp1, const Vector3d& g
     return;
   }
 
+  // Agreement s(s-1)/2 >= min_agreement  <=>  s >= min_s.
+  const int min_s = options.min_agreement <= 1 ? 2 : 3;
   std::array<Ranked, 2 * kMaxHyp> ranked;
   int nr = 0;
   for (int order = 0; order < 2; ++order) {
@@ -305,12 +303,12 @@ void solve_pair_pose(const Vector3d& gp0, const Vector3d& gp1, const Vector3d& g
     p[1] = {a1, order == 0 ? tn1 : tn0, true};
     p[2] = {ug, order == 0 ? ut : Vector3d(-ut), has_u};
     HypSet set;
-    order_hypotheses(p, options, sin_collinear, set);
+    order_hypotheses(p, options, sin_collinear, min_s, set);
     // Best first within the order, then drop hypotheses that repeat a kept rotation.
     std::array<Ranked, kMaxHyp> local;
     int nl = 0;
     for (int k = 0; k < set.n; ++k)
-      if (set.h[k].s >= 2) local[nl++] = {set.h[k], order};
+      if (set.h[k].s >= min_s) local[nl++] = {set.h[k], order};
     std::sort(local.begin(), local.begin() + nl, better);
     const int first = nr;
     for (int k = 0; k < nl; ++k) {

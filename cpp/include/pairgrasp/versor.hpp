@@ -29,7 +29,7 @@
 /// satisfied pairings, the agreement is s(s-1)/2, the number of the order's three meetings
 /// (pairs of pairings) that R reproduces: 3 for an exact correspondence in the right order, 1
 /// when only one meeting agrees (the wrong order, generically), at most 1 when the points
-/// coincide. Candidates need agreement >= 1.
+/// coincide. Candidates need agreement >= max(1, options.min_agreement).
 #include <pairgrasp/types.hpp>
 
 #include <vector>
@@ -44,6 +44,9 @@ struct PairPoseOptions {
   /// line is collinear: the roll about that line is free, so the correspondence is
   /// underdetermined.
   double collinear_tolerance = 1e-3;
+  /// Candidates with less agreement are not returned (1..3; 2 and 3 both mean "all three
+  /// pairings", since agreement is 0, 1 or 3).
+  int min_agreement = 1;
 };
 
 /// Why solve_pair_pose() returned what it returned.

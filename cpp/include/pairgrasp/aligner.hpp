@@ -1,0 +1,146 @@
+#pragma once
+/// @file aligner.hpp
+/// Aligns a gripper constellation with a target's surface (paper Fig. 4, "works like a Hough
+/// transform"): every gripper pair's feature is looked up in the target's PairIndex, every
+/// matching target pair votes for the rotations the six-pairing versor solver gives, and the
+/// best-supported rotations then vote for wrist positions.
+///
+/// Three passes, all with bounded memory:
+///  1. Correspondences: for each gripper pair (a, b), a < b, the feature
+///     e = pair_feature(p_a, -n_a, p_b, -n_b) (gripper normals flipped) is queried with the
+///     tolerance box; every stored (free) target pair inside is a correspondence. Gripper pairs
+///     whose two normals lie along their connecting line (antipodal: the roll is free) are
+///     skipped. More than `max_correspondences` are thinned evenly (every k-th is kept).
+///  2. Rotation votes: each correspondence's candidates (solve_pair_pose) with agreement a >=
+///     `min_agreement` (default 3: all three pairings agree) cast a votes into hashed bins over unit quaternions (w >= 0; cell
+///     angle_tolerance / 2 in each of the four coordinates, i.e. about angle_tolerance in rotation
+///     angle; a rotation near a half turn is looked up on both sides). At most `capacity` bins are
+///     held: a vote for a new bin when all are taken is dropped and counted, and the result is
+///     flagged `saturated`. x exactly matched contacts give 3 x(x-1)/2 votes for the true
+///     rotation (three agreeing meetings per contact pair).
+///  3. Position votes: bins are merged into rotation clusters (greedy from the strongest bin,
+///     taking neighbouring bins whose mean rotation lies within angle_tolerance of the seed's);
+///     for the `rotation_clusters` strongest, each vote gives t = P_T - R.P_G (eq. 19, pair
+///     midpoints, R the cluster's mean rotation) into hashed bins of cell position_tolerance
+///     (at most `position_capacity` per cluster), merged the same way (Euclidean distance).
+///
+/// Each (rotation, position) cluster becomes a pose. Its rotation is the vote-weighted mean
+/// quaternion of its votes (refined once: votes farther than angle_tolerance from the mean are
+/// dropped and the mean recomputed), its translation t = mean(P_T) - R.mean(P_G) over the kept
+/// votes. With w_k the votes (agreement) of kept candidate k, R_k its own rotation, h the
+/// index's spacing() and tau the angle tolerance, the **dimensionless variance** is
+///
+///   variance = sum_k w_k ( |P_T,k - R.P_G,k - t|^2 / h^2 + angle(R_k, R)^2 / tau^2 ) / sum_k w_k
+///
+/// and the alignment quality is Q_A = votes / (1 + variance) (eq. 8), votes = sum_k w_k.
+///
+/// Results are deterministic and independent of the thread count: work is split into fixed
+/// chunks whose results are merged in chunk order.
+#include <pairgrasp/hand.hpp>
+#include <pairgrasp/pair_index.hpp>
+#include <pairgrasp/types.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace pairgrasp {
+
+/// Options for Aligner. A zero tolerance means "derive from the index spacing h".
+struct AlignerOptions {
+  /// Feature tolerance box (d metres, phi, beta_ij + beta_ji). Zero: (0.5 h, 0.1, 0.1).
+  Eigen::Vector3d feature_tolerance = Eigen::Vector3d::Zero();
+  /// Rotation tolerance (radians): solver pairing tolerance and rotation cluster radius.
+  /// Zero: 4 degrees.
+  double angle_tolerance = 0.0;
+  /// Position cluster radius (metres). Zero: 0.5 h.
+  double position_tolerance = 0.0;
+  /// A gripper pair whose normals and connecting line all lie within this angle (radians) of
+  /// one line is underdetermined and skipped. Zero: the angle tolerance.
+  double collinear_tolerance = 0.0;
+  std::size_t capacity = 1u << 16;           ///< rotation bins held (fixed; see `saturated`)
+  std::size_t position_capacity = 1u << 12;  ///< position bins held per rotation cluster
+  std::size_t max_correspondences = 1u << 21;  ///< pass-1 correspondences kept (evenly thinned above)
+  int rotation_clusters = 16;    ///< strongest rotation clusters that get position votes
+  int positions_per_rotation = 4;  ///< position clusters taken per rotation cluster
+  int max_poses = 10;            ///< poses returned (best first)
+  /// Solver candidates with less agreement do not vote. 3 (default): only rotations that
+  /// satisfy all three pairings of a point order; 1 also lets single meetings vote (noisy).
+  int min_agreement = 3;
+  int min_votes = 3;             ///< poses with fewer votes are not returned
+  int threads = 0;               ///< worker threads for one align(); 0: all cores
+};
+
+/// One aligned pose of the gripper: p_T = rotation * p_G + translation.
+struct AlignedPose {
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< wrist frame -> target frame
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();   ///< metres
+  int votes = 0;          ///< sum of the agreement of the candidates that support it
+  double quality = 0.0;   ///< Q_A = votes / (1 + variance)
+  double variance = 0.0;  ///< dimensionless (see the file comment)
+  double position_rms = 0.0;  ///< metres: weighted rms of |P_T - R.P_G - t| over the votes
+  double angle_rms = 0.0;     ///< radians: weighted rms of angle(R_k, R) over the votes
+  int correspondences = 0;    ///< solver candidates (one per correspondence) that support it
+  /// (K,2) matched contacts: gripper sample index, target facet index (of the index's points),
+  /// deduplicated, sorted.
+  Eigen::Matrix<std::int32_t, Eigen::Dynamic, 2, Eigen::RowMajor> contacts;
+
+  /// The pose as an isometry.
+  Pose pose() const;
+};
+
+/// Counts from one alignment.
+struct AlignStats {
+  std::size_t gripper_pairs = 0;        ///< P(P-1)/2
+  std::size_t collinear_pairs = 0;      ///< gripper pairs skipped as underdetermined (antipodal)
+  std::size_t correspondences = 0;      ///< target pairs found by the pass-1 queries
+  std::size_t correspondences_used = 0; ///< after thinning to max_correspondences
+  std::size_t underdetermined = 0;      ///< correspondences the solver found underdetermined
+  std::size_t no_agreement = 0;         ///< correspondences with no rigid candidate
+  std::size_t candidates = 0;           ///< solver candidates that voted (agreement >= min_agreement)
+  std::size_t rotation_votes = 0;       ///< votes cast in pass 2 (sum of their agreement)
+  std::size_t dropped_rotation_votes = 0;  ///< votes lost because every rotation bin was taken
+  std::size_t rotation_bins = 0;        ///< rotation bins used
+  std::size_t rotation_clusters = 0;    ///< rotation clusters that received position votes
+  std::size_t position_votes = 0;       ///< votes cast in pass 3
+  std::size_t dropped_position_votes = 0;  ///< votes lost because a position accumulator was full
+  bool saturated = false;  ///< some votes or correspondences were dropped (capacity reached)
+};
+
+/// Poses best first (Q_A, then votes) and the counts.
+struct AlignResult {
+  std::vector<AlignedPose> poses;
+  AlignStats stats;
+};
+
+/// Aligns gripper constellations with one target. Thread-safe: align() may be called from
+/// several threads at once.
+class Aligner {
+ public:
+  /// Throws std::invalid_argument for a null index, a negative or non-finite tolerance, a zero
+  /// capacity, or max_poses, rotation_clusters, positions_per_rotation < 1, threads < 0.
+  explicit Aligner(std::shared_ptr<const PairIndex> index, const AlignerOptions& options = {});
+
+  /// Aligns one constellation: points (P,3) in the wrist frame (metres), normals (P,3) unit,
+  /// as stored on the gripper (pointing out of the finger surface). P >= 2.
+  /// Throws std::invalid_argument ("normals: expected (7,3) like points, got (6,3)") for bad
+  /// shapes, non-finite values or non-unit normals.
+  AlignResult align(const Points& points, const Points& normals) const;
+
+  /// Aligns many constellations on all `options().threads` workers (one constellation per
+  /// task); result k belongs to constellation k and equals align() of it.
+  std::vector<AlignResult> align_many(const std::vector<Constellation>& constellations) const;
+
+  /// The options with every default resolved (tolerances filled in from the index spacing).
+  const AlignerOptions& options() const;
+  /// The target's pair index.
+  const PairIndex& index() const;
+
+ private:
+  std::shared_ptr<const PairIndex> index_;
+  AlignerOptions options_;
+};
+
+}  // namespace pairgrasp

@@ -1,0 +1,206 @@
+// Fixed-capacity hashed vote bins and their greedy clustering (see accumulator.hpp).
+#include "accumulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+namespace pairgrasp::detail {
+
+namespace {
+
+std::uint64_t mix(std::uint64_t x) {  // splitmix64 finaliser
+  x += 0x9e3779b97f4a7c15ull;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+  return x ^ (x >> 31);
+}
+
+std::int32_t to_cell(double v, double cell) {
+  const double c = std::floor(v / cell);
+  constexpr double lim = 1e9;  // far beyond any meaningful grid; keeps the cast defined
+  return static_cast<std::int32_t>(std::clamp(c, -lim, lim));
+}
+
+template <int D>
+bool cell_less(const std::array<std::int32_t, D>& a, const std::array<std::int32_t, D>& b) {
+  return std::lexicographical_compare(a.begin(), a.end(), b.begin(), b.end());
+}
+
+// Bin indices, strongest first, ties broken by the cell (deterministic).
+template <int D>
+std::vector<std::int32_t> strongest_first(const HashedBins<D>& bins) {
+  std::vector<std::int32_t> order(bins.bins().size());
+  std::iota(order.begin(), order.end(), 0);
+  const auto& b = bins.bins();
+  std::sort(order.begin(), order.end(), [&](std::int32_t x, std::int32_t y) {
+    if (b[x].weight != b[y].weight) return b[x].weight > b[y].weight;
+    return cell_less<D>(b[x].cell, b[y].cell);
+  });
+  return order;
+}
+
+// Calls f(neighbour cell) for the 3^D cells around `c` (including c).
+template <int D, class F>
+void for_neighbours(const std::array<std::int32_t, D>& c, F f) {
+  int total = 1;
+  for (int k = 0; k < D; ++k) total *= 3;
+  for (int code = 0; code < total; ++code) {
+    std::array<std::int32_t, D> n = c;
+    int r = code;
+    for (int k = 0; k < D; ++k) {
+      n[k] += r % 3 - 1;
+      r /= 3;
+    }
+    f(n);
+  }
+}
+
+}  // namespace
+
+template <int D>
+HashedBins<D>::HashedBins(std::size_t capacity, std::size_t expected_entries) : capacity_(capacity) {
+  const std::size_t held = std::max<std::size_t>(1, std::min(capacity, expected_entries));
+  std::size_t size = 16;
+  while (size < 2 * held) size <<= 1;
+  table_.assign(size, -1);
+  mask_ = size - 1;
+  bins_.reserve(held);
+}
+
+template <int D>
+std::size_t HashedBins<D>::slot_of(const Cell& cell) const {
+  std::uint64_t h = 0x243f6a8885a308d3ull;
+  for (int k = 0; k < D; ++k) h = mix(h ^ static_cast<std::uint32_t>(cell[k]));
+  return static_cast<std::size_t>(h) & mask_;
+}
+
+template <int D>
+std::int32_t HashedBins<D>::find(const Cell& cell) const {
+  for (std::size_t s = slot_of(cell);; s = (s + 1) & mask_) {
+    const std::int32_t b = table_[s];
+    if (b < 0) return -1;
+    if (bins_[b].cell == cell) return b;
+  }
+}
+
+template <int D>
+std::int32_t HashedBins<D>::add(const Cell& cell, const Value& value, double weight) {
+  std::size_t s = slot_of(cell);
+  for (;; s = (s + 1) & mask_) {
+    const std::int32_t b = table_[s];
+    if (b < 0) break;
+    if (bins_[b].cell == cell) {
+      Bin& bin = bins_[b];
+      bin.weight += weight;
+      bin.sum += weight * value;
+      ++bin.count;
+      return b;
+    }
+  }
+  // A new cell. The table holds at most half its size in bins, so probing always ends.
+  if (bins_.size() >= capacity_ || 2 * (bins_.size() + 1) > table_.size()) {
+    ++dropped_entries_;
+    dropped_weight_ += weight;
+    return -1;
+  }
+  const auto b = static_cast<std::int32_t>(bins_.size());
+  Bin bin;
+  bin.cell = cell;
+  bin.weight = weight;
+  bin.sum = weight * value;
+  bin.count = 1;
+  bins_.push_back(bin);
+  table_[s] = b;
+  return b;
+}
+
+template class HashedBins<3>;
+template class HashedBins<4>;
+
+Eigen::Quaterniond canonical_quaternion(Eigen::Quaterniond q) {
+  q.normalize();
+  const double c[4] = {q.w(), q.x(), q.y(), q.z()};
+  for (double v : c) {
+    if (v > 0) return q;
+    if (v < 0) {
+      q.coeffs() = -q.coeffs();
+      return q;
+    }
+  }
+  return q;
+}
+
+std::array<std::int32_t, 4> quaternion_cell(const Eigen::Quaterniond& q, double cell) {
+  return {to_cell(q.x(), cell), to_cell(q.y(), cell), to_cell(q.z(), cell), to_cell(q.w(), cell)};
+}
+
+std::array<std::int32_t, 3> position_cell(const Eigen::Vector3d& p, double cell) {
+  return {to_cell(p.x(), cell), to_cell(p.y(), cell), to_cell(p.z(), cell)};
+}
+
+std::vector<Cluster> rotation_clusters(const HashedBins<4>& bins, double cell, double radius, int max_clusters) {
+  const auto& b = bins.bins();
+  std::vector<char> used(b.size(), 0);
+  std::vector<Cluster> out;
+  // angle(q1, q2) <= radius  <=>  |q1 . q2| >= cos(radius / 2)
+  const double min_dot = std::cos(0.5 * std::min(radius, 3.14159265358979323846));
+  for (std::int32_t seed : strongest_first(bins)) {
+    if (static_cast<int>(out.size()) >= max_clusters) break;
+    if (used[seed]) continue;
+    const Eigen::Vector4d seed_mean = b[seed].sum.normalized();
+    Cluster c;
+    Eigen::Vector4d sum = Eigen::Vector4d::Zero();
+    auto take = [&](const std::array<std::int32_t, 4>& n) {
+      const std::int32_t k = bins.find(n);
+      if (k < 0 || used[k]) return;
+      const Eigen::Vector4d m = b[k].sum.normalized();
+      const double dot = m.dot(seed_mean);
+      if (std::abs(dot) < min_dot) return;
+      used[k] = 1;
+      c.bins.push_back(k);
+      c.weight += b[k].weight;
+      sum += dot < 0 ? Eigen::Vector4d(-b[k].sum) : b[k].sum;
+    };
+    take(b[seed].cell);  // the seed first
+    for_neighbours<4>(b[seed].cell, take);
+    // A rotation near a half turn (w ~ 0) has neighbours written with the opposite sign.
+    const Eigen::Quaterniond anti(-seed_mean(3), -seed_mean(0), -seed_mean(1), -seed_mean(2));
+    if (anti.w() > -2.0 * cell) for_neighbours<4>(quaternion_cell(anti, cell), take);
+    c.mean = sum.normalized();
+    out.push_back(std::move(c));
+  }
+  std::stable_sort(out.begin(), out.end(), [](const Cluster& x, const Cluster& y) { return x.weight > y.weight; });
+  return out;
+}
+
+std::vector<Cluster> position_clusters(const HashedBins<3>& bins, double /*cell*/, double radius, int max_clusters) {
+  const auto& b = bins.bins();
+  std::vector<char> used(b.size(), 0);
+  std::vector<Cluster> out;
+  for (std::int32_t seed : strongest_first(bins)) {
+    if (static_cast<int>(out.size()) >= max_clusters) break;
+    if (used[seed]) continue;
+    const Eigen::Vector3d seed_mean = b[seed].sum / b[seed].weight;
+    Cluster c;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    auto take = [&](const std::array<std::int32_t, 3>& n) {
+      const std::int32_t k = bins.find(n);
+      if (k < 0 || used[k]) return;
+      if ((b[k].sum / b[k].weight - seed_mean).norm() > radius) return;
+      used[k] = 1;
+      c.bins.push_back(k);
+      c.weight += b[k].weight;
+      sum += b[k].sum;
+    };
+    take(b[seed].cell);
+    for_neighbours<3>(b[seed].cell, take);
+    c.mean.head<3>() = sum / c.weight;
+    out.push_back(std::move(c));
+  }
+  std::stable_sort(out.begin(), out.end(), [](const Cluster& x, const Cluster& y) { return x.weight > y.weight; });
+  return out;
+}
+
+}  // namespace pairgrasp::detail

@@ -1,0 +1,449 @@
+// The Aligner: pass 1 correspondences, pass 2 rotation votes, pass 3 position votes
+// (see aligner.hpp for the method, the variance and the determinism guarantees).
+#include <pairgrasp/aligner.hpp>
+#include <pairgrasp/error.hpp>
+#include <pairgrasp/features.hpp>
+#include <pairgrasp/versor.hpp>
+
+#include "accumulator.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <exception>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <utility>
+
+namespace pairgrasp {
+
+namespace {
+
+using Eigen::Quaterniond;
+using Eigen::Vector3d;
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr std::size_t kChunk = 256;  // correspondences per pass-2 work item (fixed: determinism)
+
+// Runs f(i) for i in [0, n) on up to `threads` threads; rethrows the first exception.
+template <class F>
+void parallel_for(std::size_t n, int threads, F&& f) {
+  const std::size_t workers = std::min<std::size_t>(std::max(threads, 1), n);
+  if (workers <= 1) {
+    for (std::size_t i = 0; i < n; ++i) f(i);
+    return;
+  }
+  std::atomic<std::size_t> next{0};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  auto work = [&] {
+    for (;;) {
+      const std::size_t i = next.fetch_add(1);
+      if (i >= n) return;
+      try {
+        f(i);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = std::current_exception();
+        next.store(n);
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  pool.reserve(workers - 1);
+  for (std::size_t w = 1; w < workers; ++w) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+}
+
+// The facet size h used to make variances dimensionless: the index's spacing, or d_max / 10 for
+// an index too small to have one.
+double reference_spacing(const PairIndex& index) {
+  const double h = index.spacing();
+  return h > 0 && std::isfinite(h) ? h : index.d_max() / 10;
+}
+
+int resolve_threads(int threads) {
+  if (threads > 0) return threads;
+  const unsigned hw = std::thread::hardware_concurrency();
+  return hw ? static_cast<int>(hw) : 1;
+}
+
+struct GripperPair {
+  std::int32_t a, b;
+};
+
+// One solver candidate that voted: 28 bytes.
+struct Vote {
+  std::uint32_t corr;   // index into the correspondence list
+  std::int32_t slot;    // rotation bin, -1 when dropped
+  float q[4];           // canonical quaternion (x, y, z, w)
+  std::uint8_t agreement;
+  std::uint8_t order;
+};
+
+struct Correspondence {
+  std::uint32_t gripper_pair;
+  std::uint32_t target_pair;
+};
+
+Quaterniond vote_quaternion(const Vote& v) {
+  return Quaterniond(v.q[3], v.q[0], v.q[1], v.q[2]).normalized();
+}
+
+void check_constellation(const Points& points, const Points& normals) {
+  if (points.rows() < 2)
+    throw std::invalid_argument("points: expected (P,3) with P >= 2, got (" + std::to_string(points.rows()) + ",3)");
+  if (normals.rows() != points.rows())
+    throw std::invalid_argument("normals: expected (" + std::to_string(points.rows()) + ",3) like points, got (" +
+                                std::to_string(normals.rows()) + ",3)");
+  for (Eigen::Index i = 0; i < points.rows(); ++i) {
+    if (!points.row(i).allFinite())
+      throw std::invalid_argument("points: row " + std::to_string(i) + " is not finite");
+    if (!normals.row(i).allFinite())
+      throw std::invalid_argument("normals: row " + std::to_string(i) + " is not finite");
+    const double n = normals.row(i).norm();
+    if (!(std::abs(n - 1.0) <= 1e-6))
+      throw std::invalid_argument("normals: row " + std::to_string(i) + " has length " + std::to_string(n) +
+                                  ", expected unit length");
+  }
+}
+
+void check_tolerance(const char* name, double v) {
+  if (!std::isfinite(v) || v < 0)
+    throw std::invalid_argument(std::string(name) + ": expected a non-negative finite value (0: default), got " +
+                                std::to_string(v));
+}
+
+// Everything one alignment needs, read-only.
+struct Context {
+  const PairIndex& index;
+  const AlignerOptions& opt;  // resolved
+  const Points& gp;
+  const Points& gn;
+  double h;
+};
+
+Vector3d gripper_mid(const Context& c, const GripperPair& g) {
+  return 0.5 * (c.gp.row(g.a).transpose() + c.gp.row(g.b).transpose());
+}
+
+Vector3d target_mid(const Context& c, std::uint32_t target_pair) {
+  const auto& pairs = c.index.pairs();
+  const auto& tp = c.index.points();
+  return 0.5 * (tp.row(pairs(target_pair, 0)).transpose() + tp.row(pairs(target_pair, 1)).transpose());
+}
+
+// Turns the votes of one (rotation, position) cluster into a pose. `seed` is the rotation
+// cluster's mean; returns false when fewer than min_votes remain.
+bool make_pose(const Context& c, const std::vector<GripperPair>& gpairs, const std::vector<Correspondence>& corr,
+               const std::vector<Vote>& votes, const std::vector<std::uint32_t>& members, const Quaterniond& seed,
+               AlignedPose& pose) {
+  const double tau = c.opt.angle_tolerance;
+  // Weighted mean quaternion, signs aligned to the seed; once more without the outliers.
+  auto mean_of = [&](const Quaterniond& ref, const std::vector<std::uint32_t>& which) {
+    Eigen::Vector4d sum = Eigen::Vector4d::Zero();
+    for (auto k : which) {
+      const Quaterniond q = vote_quaternion(votes[k]);
+      const double w = votes[k].agreement;
+      sum += (q.coeffs().dot(ref.coeffs()) < 0 ? -w : w) * q.coeffs();
+    }
+    Quaterniond m;
+    m.coeffs() = sum.normalized();
+    return m;
+  };
+  Quaterniond mean = mean_of(seed, members);
+  std::vector<std::uint32_t> kept;
+  kept.reserve(members.size());
+  for (auto k : members)
+    if (rotation_distance(vote_quaternion(votes[k]), mean) <= tau) kept.push_back(k);
+  if (kept.empty()) kept = members;
+  mean = mean_of(mean, kept);
+  const Eigen::Matrix3d R = mean.toRotationMatrix();
+
+  double wsum = 0.0;
+  Vector3d tsum = Vector3d::Zero();
+  for (auto k : kept) {
+    const Vote& v = votes[k];
+    const double w = v.agreement;
+    const Correspondence& cr = corr[v.corr];
+    tsum += w * (target_mid(c, cr.target_pair) - R * gripper_mid(c, gpairs[cr.gripper_pair]));
+    wsum += w;
+  }
+  const int total_votes = static_cast<int>(std::lround(wsum));
+  if (total_votes < c.opt.min_votes) return false;
+  const Vector3d t = tsum / wsum;
+
+  double pos2 = 0.0, ang2 = 0.0;
+  std::vector<std::pair<std::int32_t, std::int32_t>> contacts;
+  contacts.reserve(2 * kept.size());
+  const auto& pairs = c.index.pairs();
+  for (auto k : kept) {
+    const Vote& v = votes[k];
+    const double w = v.agreement;
+    const Correspondence& cr = corr[v.corr];
+    const GripperPair& g = gpairs[cr.gripper_pair];
+    pos2 += w * (target_mid(c, cr.target_pair) - R * gripper_mid(c, g) - t).squaredNorm();
+    const double a = rotation_distance(vote_quaternion(v), mean);
+    ang2 += w * a * a;
+    const std::int32_t i = pairs(cr.target_pair, 0), j = pairs(cr.target_pair, 1);
+    contacts.emplace_back(g.a, v.order == 0 ? i : j);
+    contacts.emplace_back(g.b, v.order == 0 ? j : i);
+  }
+  std::sort(contacts.begin(), contacts.end());
+  contacts.erase(std::unique(contacts.begin(), contacts.end()), contacts.end());
+
+  pose.rotation = R;
+  pose.translation = t;
+  pose.votes = total_votes;
+  pose.position_rms = std::sqrt(pos2 / wsum);
+  pose.angle_rms = std::sqrt(ang2 / wsum);
+  pose.variance = pos2 / wsum / (c.h * c.h) + ang2 / wsum / (tau * tau);
+  pose.quality = total_votes / (1.0 + pose.variance);
+  pose.correspondences = static_cast<int>(kept.size());
+  pose.contacts.resize(static_cast<Eigen::Index>(contacts.size()), 2);
+  for (std::size_t r = 0; r < contacts.size(); ++r) {
+    pose.contacts(static_cast<Eigen::Index>(r), 0) = contacts[r].first;
+    pose.contacts(static_cast<Eigen::Index>(r), 1) = contacts[r].second;
+  }
+  return true;
+}
+
+AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const Points& gp, const Points& gn,
+                       int threads) {
+  check_constellation(gp, gn);
+  AlignResult result;
+  AlignStats& st = result.stats;
+  const Context ctx{index, opt, gp, gn, reference_spacing(index)};
+  const double tau = opt.angle_tolerance;
+
+  // ---- pass 1: correspondences
+  const auto P = static_cast<std::int32_t>(gp.rows());
+  std::vector<GripperPair> gpairs;
+  std::vector<Vector3d> features;
+  const double sin_collinear = std::sin(std::min(opt.collinear_tolerance, 0.5 * kPi));
+  for (std::int32_t a = 0; a < P; ++a)
+    for (std::int32_t b = a + 1; b < P; ++b) {
+      ++st.gripper_pairs;
+      const Vector3d pa = gp.row(a).transpose(), pb = gp.row(b).transpose();
+      const Vector3d na = -gn.row(a).transpose(), nb = -gn.row(b).transpose();  // flipped
+      const Vector3d d = pb - pa;
+      const double len = d.norm();
+      double s = na.cross(nb).norm();
+      if (len > 0) s = std::max({s, na.cross(d / len).norm(), nb.cross(d / len).norm()});
+      if (s <= sin_collinear) {
+        ++st.collinear_pairs;
+        continue;
+      }
+      if (len > index.d_max() + opt.feature_tolerance.x()) continue;  // nothing stored that far
+      gpairs.push_back({a, b});
+      features.push_back(pair_feature(pa, na, pb, nb));
+    }
+  std::vector<std::vector<std::uint32_t>> hits(gpairs.size());
+  parallel_for(gpairs.size(), threads, [&](std::size_t g) {
+    index.query(features[g], opt.feature_tolerance, hits[g]);
+    std::sort(hits[g].begin(), hits[g].end());
+  });
+  for (const auto& h : hits) st.correspondences += h.size();
+  const std::size_t stride =
+      st.correspondences > opt.max_correspondences
+          ? (st.correspondences + opt.max_correspondences - 1) / opt.max_correspondences
+          : 1;
+  std::vector<Correspondence> corr;
+  corr.reserve(st.correspondences / stride + 1);
+  {
+    std::size_t k = 0;
+    for (std::size_t g = 0; g < hits.size(); ++g) {
+      for (auto t : hits[g])
+        if (k++ % stride == 0) corr.push_back({static_cast<std::uint32_t>(g), t});
+      std::vector<std::uint32_t>().swap(hits[g]);
+    }
+  }
+  st.correspondences_used = corr.size();
+  if (stride > 1) st.saturated = true;
+
+  // ---- pass 2: solve in fixed chunks (parallel), vote in chunk order (sequential)
+  PairPoseOptions sopt;
+  sopt.angle_tolerance = tau;
+  sopt.collinear_tolerance = opt.collinear_tolerance;
+  sopt.min_agreement = std::max(1, opt.min_agreement);
+  const std::size_t nchunks = (corr.size() + kChunk - 1) / kChunk;
+  std::vector<std::vector<Vote>> chunk_votes(nchunks);
+  std::vector<std::size_t> chunk_under(nchunks, 0), chunk_none(nchunks, 0);
+  const auto& tpairs = index.pairs();
+  const auto& tp = index.points();
+  const auto& tn = index.normals();
+  parallel_for(nchunks, threads, [&](std::size_t ch) {
+    PairPoseResult r;
+    auto& out = chunk_votes[ch];
+    const std::size_t end = std::min(corr.size(), (ch + 1) * kChunk);
+    for (std::size_t k = ch * kChunk; k < end; ++k) {
+      const GripperPair& g = gpairs[corr[k].gripper_pair];
+      const std::int32_t i = tpairs(corr[k].target_pair, 0), j = tpairs(corr[k].target_pair, 1);
+      solve_pair_pose(gp.row(g.a).transpose(), gp.row(g.b).transpose(), gn.row(g.a).transpose(),
+                      gn.row(g.b).transpose(), tp.row(i).transpose(), tp.row(j).transpose(), tn.row(i).transpose(),
+                      tn.row(j).transpose(), sopt, r);
+      if (r.status == PairPoseStatus::Underdetermined) ++chunk_under[ch];
+      if (r.status == PairPoseStatus::NoAgreement) ++chunk_none[ch];
+      for (const auto& c : r.candidates) {
+        if (c.agreement < opt.min_agreement) continue;
+        const Quaterniond q = detail::canonical_quaternion(c.versor);
+        out.push_back({static_cast<std::uint32_t>(k), -1,
+                       {float(q.x()), float(q.y()), float(q.z()), float(q.w())},
+                       static_cast<std::uint8_t>(c.agreement), static_cast<std::uint8_t>(c.order)});
+      }
+    }
+  });
+  std::vector<Vote> votes;
+  {
+    std::size_t n = 0;
+    for (const auto& v : chunk_votes) n += v.size();
+    votes.reserve(n);
+    st.candidates = n;
+    for (std::size_t ch = 0; ch < nchunks; ++ch) {
+      votes.insert(votes.end(), chunk_votes[ch].begin(), chunk_votes[ch].end());
+      std::vector<Vote>().swap(chunk_votes[ch]);
+      st.underdetermined += chunk_under[ch];
+      st.no_agreement += chunk_none[ch];
+    }
+  }
+  const double qcell = std::sin(0.25 * tau) * 2.0;  // chord of angle tau on the unit quaternions: 2 sin(tau / 4)
+  detail::HashedBins<4> rbins(opt.capacity, votes.size());
+  for (Vote& v : votes) {
+    const Quaterniond q = vote_quaternion(v);
+    st.rotation_votes += v.agreement;
+    v.slot = rbins.add(detail::quaternion_cell(q, qcell), q.coeffs(), v.agreement);
+  }
+  st.rotation_bins = rbins.bins().size();
+  st.dropped_rotation_votes = static_cast<std::size_t>(std::lround(rbins.dropped_weight()));
+  if (rbins.saturated()) st.saturated = true;
+
+  // ---- pass 3: position votes for the strongest rotation clusters
+  const auto rclusters = detail::rotation_clusters(rbins, qcell, tau, opt.rotation_clusters);
+  st.rotation_clusters = rclusters.size();
+  std::vector<std::int32_t> cluster_of(rbins.bins().size(), -1);
+  for (std::size_t c = 0; c < rclusters.size(); ++c)
+    for (auto b : rclusters[c].bins) cluster_of[b] = static_cast<std::int32_t>(c);
+  std::vector<std::vector<std::uint32_t>> members(rclusters.size());
+  for (std::size_t k = 0; k < votes.size(); ++k)
+    if (votes[k].slot >= 0 && cluster_of[votes[k].slot] >= 0)
+      members[cluster_of[votes[k].slot]].push_back(static_cast<std::uint32_t>(k));
+
+  const double pcell = opt.position_tolerance;
+  std::vector<AlignedPose> poses;
+  for (std::size_t c = 0; c < rclusters.size(); ++c) {
+    Quaterniond qc;
+    qc.coeffs() = rclusters[c].mean;
+    const Eigen::Matrix3d Rc = qc.toRotationMatrix();
+    detail::HashedBins<3> pbins(opt.position_capacity, members[c].size());
+    std::vector<std::int32_t> pslot(members[c].size());
+    std::vector<Vector3d> tvals(members[c].size());
+    for (std::size_t m = 0; m < members[c].size(); ++m) {
+      const Vote& v = votes[members[c][m]];
+      const Correspondence& cr = corr[v.corr];
+      tvals[m] = target_mid(ctx, cr.target_pair) - Rc * gripper_mid(ctx, gpairs[cr.gripper_pair]);
+      st.position_votes += v.agreement;
+      pslot[m] = pbins.add(detail::position_cell(tvals[m], pcell), tvals[m], v.agreement);
+    }
+    st.dropped_position_votes += static_cast<std::size_t>(std::lround(pbins.dropped_weight()));
+    if (pbins.saturated()) st.saturated = true;
+    const auto pclusters = detail::position_clusters(pbins, pcell, opt.position_tolerance, opt.positions_per_rotation);
+    std::vector<std::int32_t> pcluster_of(pbins.bins().size(), -1);
+    for (std::size_t p = 0; p < pclusters.size(); ++p)
+      for (auto b : pclusters[p].bins) pcluster_of[b] = static_cast<std::int32_t>(p);
+    std::vector<std::vector<std::uint32_t>> pmembers(pclusters.size());
+    for (std::size_t m = 0; m < members[c].size(); ++m)
+      if (pslot[m] >= 0 && pcluster_of[pslot[m]] >= 0) pmembers[pcluster_of[pslot[m]]].push_back(members[c][m]);
+    for (std::size_t p = 0; p < pclusters.size(); ++p) {
+      AlignedPose pose;
+      if (make_pose(ctx, gpairs, corr, votes, pmembers[p], qc, pose)) poses.push_back(std::move(pose));
+    }
+  }
+
+  // Best first; a pose within both tolerances of a better one repeats it and is dropped.
+  std::stable_sort(poses.begin(), poses.end(), [](const AlignedPose& x, const AlignedPose& y) {
+    if (x.quality != y.quality) return x.quality > y.quality;
+    return x.votes > y.votes;
+  });
+  for (auto& p : poses) {
+    if (static_cast<int>(result.poses.size()) >= opt.max_poses) break;
+    const Quaterniond qp(p.rotation);
+    bool repeat = false;
+    for (const auto& k : result.poses)
+      repeat = repeat || (rotation_distance(Quaterniond(k.rotation), qp) <= tau &&
+                          (k.translation - p.translation).norm() <= opt.position_tolerance);
+    if (!repeat) result.poses.push_back(std::move(p));
+  }
+  return result;
+}
+
+}  // namespace
+
+Pose AlignedPose::pose() const {
+  Pose p = Pose::Identity();
+  p.linear() = rotation;
+  p.translation() = translation;
+  return p;
+}
+
+Aligner::Aligner(std::shared_ptr<const PairIndex> index, const AlignerOptions& options)
+    : index_(std::move(index)), options_(options) {
+  if (!index_) throw std::invalid_argument("index: expected a PairIndex, got null");
+  AlignerOptions& o = options_;
+  for (int k = 0; k < 3; ++k) check_tolerance("feature_tolerance", o.feature_tolerance[k]);
+  check_tolerance("angle_tolerance", o.angle_tolerance);
+  check_tolerance("position_tolerance", o.position_tolerance);
+  check_tolerance("collinear_tolerance", o.collinear_tolerance);
+  if (o.angle_tolerance >= kPi) throw std::invalid_argument("angle_tolerance: expected less than pi radians, got " +
+                                                            std::to_string(o.angle_tolerance));
+  if (o.capacity == 0) throw std::invalid_argument("capacity: expected at least 1 rotation bin, got 0");
+  if (o.position_capacity == 0)
+    throw std::invalid_argument("position_capacity: expected at least 1 position bin, got 0");
+  if (o.max_correspondences == 0)
+    throw std::invalid_argument("max_correspondences: expected at least 1, got 0");
+  auto at_least_one = [](const char* name, int v) {
+    if (v < 1) throw std::invalid_argument(std::string(name) + ": expected at least 1, got " + std::to_string(v));
+  };
+  at_least_one("rotation_clusters", o.rotation_clusters);
+  at_least_one("positions_per_rotation", o.positions_per_rotation);
+  at_least_one("max_poses", o.max_poses);
+  if (o.min_agreement < 0 || o.min_agreement > 3)
+    throw std::invalid_argument("min_agreement: expected 0..3, got " + std::to_string(o.min_agreement));
+  if (o.min_votes < 0) throw std::invalid_argument("min_votes: expected >= 0, got " + std::to_string(o.min_votes));
+  if (o.threads < 0) throw std::invalid_argument("threads: expected >= 0 (0: all cores), got " + std::to_string(o.threads));
+
+  const double h = reference_spacing(*index_);
+  const Vector3d def(0.5 * h, 0.1, 0.1);
+  for (int k = 0; k < 3; ++k)
+    if (o.feature_tolerance[k] == 0) o.feature_tolerance[k] = def[k];
+  if (o.angle_tolerance == 0) o.angle_tolerance = 4.0 * kPi / 180.0;
+  if (o.position_tolerance == 0) o.position_tolerance = 0.5 * h;
+  if (o.collinear_tolerance == 0) o.collinear_tolerance = o.angle_tolerance;
+}
+
+const AlignerOptions& Aligner::options() const { return options_; }
+
+const PairIndex& Aligner::index() const { return *index_; }
+
+AlignResult Aligner::align(const Points& points, const Points& normals) const {
+  return align_impl(*index_, options_, points, normals, resolve_threads(options_.threads));
+}
+
+std::vector<AlignResult> Aligner::align_many(const std::vector<Constellation>& constellations) const {
+  for (std::size_t k = 0; k < constellations.size(); ++k) {
+    try {
+      check_constellation(constellations[k].points, constellations[k].normals);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument("constellations[" + std::to_string(k) + "]: " + e.what());
+    }
+  }
+  std::vector<AlignResult> out(constellations.size());
+  parallel_for(constellations.size(), resolve_threads(options_.threads), [&](std::size_t k) {
+    out[k] = align_impl(*index_, options_, constellations[k].points, constellations[k].normals, 1);
+  });
+  return out;
+}
+
+}  // namespace pairgrasp
