@@ -227,6 +227,7 @@ Hand Hand::load(const std::string& spec_path, const HandLoadOptions& options) {
         if (j.limited) {
           double a = (j.lower - drv.offset) / drv.ratio, b = (j.upper - drv.offset) / drv.ratio;
           if (a > b) std::swap(a, b);
+          a += 0.0, b += 0.0;  // no negative zeros (a limit of 0 through a ratio of -1)
           if (a > allowed_lo) allowed_lo = a, lo_joint = j.name;
           if (b < allowed_hi) allowed_hi = b, hi_joint = j.name;
         }
