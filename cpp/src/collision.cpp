@@ -1,0 +1,450 @@
+// GraspChecker: FCL triangle intersections plus sample-based depth and containment.
+#include <pairgrasp/collision.hpp>
+
+#include <pairgrasp/error.hpp>
+
+#include "collision_internal.hpp"
+
+#include <fcl/narrowphase/collision.h>
+#include <fcl/narrowphase/distance.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <queue>
+#include <stdexcept>
+#include <string>
+
+namespace pairgrasp {
+
+namespace vd = validation_detail;
+using vd::Vec3;
+
+// ---------------------------------------------------------------- helpers
+
+namespace validation_detail {
+
+std::shared_ptr<FclModel> make_fcl_model(const Points& vertices, const Triangles& faces,
+                                         const std::vector<int>& subset) {
+  std::vector<int> fs = subset;
+  if (fs.empty())
+    for (Eigen::Index f = 0; f < faces.rows(); ++f) fs.push_back(static_cast<int>(f));
+  if (fs.empty()) return nullptr;
+  std::vector<int> remap(vertices.rows(), -1);
+  std::vector<fcl::Vector3d> ps;
+  std::vector<fcl::Triangle> ts;
+  ts.reserve(fs.size());
+  for (int f : fs) {
+    int id[3];
+    for (int k = 0; k < 3; ++k) {
+      int& r = remap[faces(f, k)];
+      if (r < 0) {
+        r = static_cast<int>(ps.size());
+        ps.emplace_back(vertices.row(faces(f, k)).transpose());
+      }
+      id[k] = r;
+    }
+    ts.emplace_back(id[0], id[1], id[2]);
+  }
+  auto model = std::make_shared<FclModel>();
+  model->beginModel(static_cast<int>(ts.size()), static_cast<int>(ps.size()));
+  model->addSubModel(ps, ts);
+  model->endModel();
+  model->computeLocalAABB();
+  return model;
+}
+
+Eigen::AlignedBox3d faces_bounds(const Points& vertices, const Triangles& faces,
+                                 const std::vector<int>& subset) {
+  Eigen::AlignedBox3d box;
+  auto add = [&](Eigen::Index f) {
+    for (int k = 0; k < 3; ++k) box.extend(Vec3(vertices.row(faces(f, k)).transpose()));
+  };
+  if (subset.empty())
+    for (Eigen::Index f = 0; f < faces.rows(); ++f) add(f);
+  else
+    for (int f : subset) add(f);
+  return box;
+}
+
+Eigen::AlignedBox3d transform_box(const Eigen::AlignedBox3d& box, const Pose& pose) {
+  Eigen::AlignedBox3d out;
+  if (box.isEmpty()) return out;
+  for (int c = 0; c < 8; ++c) out.extend(pose * box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(c)));
+  return out;
+}
+
+SurfaceSamples make_samples(const Mesh& mesh, double spacing) {
+  SurfaceSamples s;
+  std::vector<int> face_of;
+  s.points = sample_surface(mesh.vertices, mesh.faces, {}, spacing, &face_of);
+  int count = 0;
+  const std::vector<int> comp = vertex_components(mesh.vertices, mesh.faces, count);
+  s.component.resize(face_of.size());
+  for (std::size_t i = 0; i < face_of.size(); ++i) s.component[i] = comp[mesh.faces(face_of[i], 0)];
+  s.component_rep.assign(count, Vec3::Zero());
+  std::vector<char> seen(count, 0);
+  for (Eigen::Index v = 0; v < mesh.vertices.rows(); ++v)
+    if (comp[v] >= 0 && !seen[comp[v]]) {
+      seen[comp[v]] = 1;
+      s.component_rep[comp[v]] = mesh.vertices.row(v).transpose();
+    }
+  std::vector<Eigen::AlignedBox3d> boxes(s.points.rows());
+  for (Eigen::Index i = 0; i < s.points.rows(); ++i) boxes[i].extend(Vec3(s.points.row(i).transpose()));
+  s.tree.build(boxes, 8);
+  return s;
+}
+
+double deepest_inside(const SurfaceSamples& samples, const Pose& to_b, const SurfaceQuery& b,
+                      const Eigen::AlignedBox3d& b_bounds, const std::vector<char>& components) {
+  const Bvh& tree = samples.tree;
+  if (tree.empty()) return 0.0;
+  // Best first: nodes ordered by the deepest any of their samples could be. Signed distance is
+  // 1-Lipschitz, so a node whose bounding ball (centre c, radius r) has sd(c) >= r is wholly
+  // outside, and none of its samples is deeper than r - sd(c).
+  struct Entry {
+    double bound;
+    std::int32_t node;
+    bool operator<(const Entry& o) const { return bound < o.bound || (bound == o.bound && node > o.node); }
+  };
+  std::priority_queue<Entry> queue;
+  auto push = [&](std::int32_t index) {
+    const BvhNode& node = tree.nodes[index];
+    const Vec3 lo(node.lo[0], node.lo[1], node.lo[2]), hi(node.hi[0], node.hi[1], node.hi[2]);
+    const double radius = 0.5 * (hi - lo).norm();
+    const Vec3 c = to_b * (0.5 * (lo + hi));
+    // A ball wholly outside B's bounding box is outside B.
+    if (box_dist2(c, b_bounds.min().data(), b_bounds.max().data()) > radius * radius) return;
+    const double sd_c = b.signed_distance(c);
+    if (sd_c >= radius) return;
+    queue.push({radius - sd_c, index});
+  };
+  double best = 0.0;
+  push(0);
+  while (!queue.empty()) {
+    const Entry e = queue.top();
+    queue.pop();
+    if (e.bound <= best) break;  // nothing left can be deeper
+    const BvhNode& node = tree.nodes[e.node];
+    if (node.count > 0) {
+      for (std::int32_t k = node.first; k < node.first + node.count; ++k) {
+        const int i = tree.order[k];
+        if (!components.empty() && !components[samples.component[i]]) continue;
+        const Vec3 p = to_b * Vec3(samples.points.row(i).transpose());
+        if (!b_bounds.contains(p)) continue;
+        const double sd = b.signed_distance(p);
+        if (sd < 0.0) best = std::max(best, -sd);
+      }
+    } else {
+      push(node.first);
+      push(node.first + 1);
+    }
+  }
+  return best;
+}
+
+}  // namespace validation_detail
+
+void check_rigid(const Pose& pose, const char* what) {
+  const Eigen::Matrix4d& m = pose.matrix();
+  if (!m.allFinite()) throw std::invalid_argument(std::string(what) + ": not finite");
+  if (m.row(3).transpose() != Eigen::Vector4d(0, 0, 0, 1))
+    throw std::invalid_argument(std::string(what) + ": last row must be 0 0 0 1");
+  const Eigen::Matrix3d R = m.topLeftCorner<3, 3>();
+  const double err = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  if (err > 1e-6)
+    throw std::invalid_argument(std::string(what) + ": rotation is not orthonormal (|R^T R - I| = " +
+                                std::to_string(err) + ")");
+  if (R.determinant() < 0.0)
+    throw std::invalid_argument(std::string(what) + ": rotation is a reflection (determinant -1)");
+}
+
+// ---------------------------------------------------------------- Impl
+
+namespace {
+
+void check_option(const char* name, double value, bool positive) {
+  if (!std::isfinite(value) || value < 0.0 || (positive && value == 0.0))
+    throw std::invalid_argument(std::string(name) + ": expected a finite length " +
+                                (positive ? "> 0" : ">= 0") + " (m), got " + std::to_string(value));
+}
+
+std::string mm(double metres) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f mm", metres * 1e3);
+  return buf;
+}
+
+}  // namespace
+
+GraspChecker::Impl::Impl(const Hand& hand_in, const Mesh& target_in, const Mask& free_in,
+                         const std::vector<Obstacle>& obstacles_in, const CheckOptions& options_in)
+    : hand(hand_in), target(target_in), obstacles(obstacles_in), options(options_in) {
+  check_option("depth_tolerance", options.depth_tolerance, false);
+  check_option("contact_gap", options.contact_gap, false);
+  check_option("sample_spacing", options.sample_spacing, false);
+  check_option("contact_spacing", options.contact_spacing, true);
+  check_option("contact_cell", options.contact_cell, true);
+  if (options.threads < 0) throw std::invalid_argument("threads: expected >= 0, got " + std::to_string(options.threads));
+  sample_spacing = options.sample_spacing > 0.0 ? options.sample_spacing : options.depth_tolerance;
+  if (!(sample_spacing > 0.0))
+    throw std::invalid_argument("sample_spacing: must be > 0 when depth_tolerance is 0");
+
+  const Eigen::Index F = target.faces.rows();
+  if (F == 0) throw std::invalid_argument("target: mesh '" + target.source + "' has no faces");
+  if (free_in.size() == 0) {
+    free = Mask::Constant(F, true);
+  } else {
+    detail::check_size("free", F, free_in.size());
+    free = free_in;
+  }
+  if (!free.any()) throw std::invalid_argument("no free face left: the free mask of the target marks every face occluded");
+  for (std::size_t i = 0; i < obstacles.size(); ++i)
+    if (obstacles[i].mesh.faces.rows() == 0)
+      throw std::invalid_argument("obstacles[" + std::to_string(i) + "]: mesh '" + obstacles[i].name + "' has no faces");
+
+  // Links.
+  const auto& hl = hand.links();
+  links.resize(hl.size());
+  for (std::size_t l = 0; l < hl.size(); ++l) {
+    vd::LinkModel& L = links[l];
+    L.name = hl[l].name;
+    L.link = &hl[l];
+    const Mesh& m = hl[l].mesh;
+    L.fcl = vd::make_fcl_model(m.vertices, m.faces);
+    L.bounds = vd::faces_bounds(m.vertices, m.faces);
+    L.query = std::make_unique<SurfaceQuery>(m);
+    L.samples = vd::make_samples(m, sample_spacing);
+    if (hl[l].active()) {
+      L.fcl_active = vd::make_fcl_model(m.vertices, m.faces, hl[l].active_faces);
+      L.contact_samples = vd::sample_surface(m.vertices, m.faces, hl[l].active_faces, options.contact_spacing);
+    }
+  }
+  // Scene: target first, then obstacles.
+  scene.resize(1 + obstacles.size());
+  {
+    vd::SceneModel& S = scene[0];
+    S.name = "target";
+    S.mesh = &target;
+    S.fcl = vd::make_fcl_model(target.vertices, target.faces);
+    S.bounds = vd::faces_bounds(target.vertices, target.faces);
+    S.query = std::make_unique<SurfaceQuery>(target);
+    S.samples = vd::make_samples(target, sample_spacing);
+  }
+  for (std::size_t i = 0; i < obstacles.size(); ++i) {
+    vd::SceneModel& S = scene[1 + i];
+    S.name = obstacles[i].name.empty() ? "obstacle " + std::to_string(i) : obstacles[i].name;
+    S.obstacle = true;
+    S.mesh = &obstacles[i].mesh;
+    S.fcl = vd::make_fcl_model(S.mesh->vertices, S.mesh->faces);
+    S.bounds = vd::faces_bounds(S.mesh->vertices, S.mesh->faces);
+    S.query = std::make_unique<SurfaceQuery>(*S.mesh);
+  }
+  std::vector<int> occ;
+  for (Eigen::Index f = 0; f < F; ++f)
+    if (!free[f]) occ.push_back(static_cast<int>(f));
+  if (!occ.empty()) {
+    occluded = vd::make_fcl_model(target.vertices, target.faces, occ);
+    occluded_bounds = vd::faces_bounds(target.vertices, target.faces, occ);
+  }
+
+  // Links driven by each DOF: those whose pose changes when the DOF moves (mid-range).
+  const Eigen::VectorXd lo = hand.dof_lower(), hi = hand.dof_upper();
+  const Eigen::VectorXd mid = (lo + hi) / 2;
+  const std::vector<Pose> p0 = hand.link_poses(mid);
+  dof_links.resize(lo.size());
+  for (Eigen::Index k = 0; k < lo.size(); ++k) {
+    Eigen::VectorXd q = mid;
+    q[k] += 1e-3 * (hi[k] - lo[k]);
+    const std::vector<Pose> p1 = hand.link_poses(q, true);
+    for (std::size_t l = 0; l < p0.size(); ++l)
+      if ((p1[l].matrix() - p0[l].matrix()).cwiseAbs().maxCoeff() > 1e-12) dof_links[k].push_back(static_cast<int>(l));
+  }
+}
+
+vd::PairCheck GraspChecker::Impl::check_pair(int l, const Pose& pose, int s) const {
+  const vd::LinkModel& L = links[l];
+  const vd::SceneModel& S = scene[s];
+  vd::PairCheck r;
+  const Eigen::AlignedBox3d lb = vd::transform_box(L.bounds, pose);
+  Eigen::AlignedBox3d sb = S.bounds;
+  sb.min().array() -= options.contact_gap;
+  sb.max().array() += options.contact_gap;
+  if (!lb.intersects(sb)) return r;
+  r.near = true;
+
+  fcl::CollisionRequestd request;  // one contact, yes/no
+  fcl::CollisionResultd result;
+  fcl::collide(L.fcl.get(), pose, S.fcl.get(), Pose::Identity(), request, result);
+  r.intersecting = result.isCollision();
+
+  double depth = 0.0;
+  // Link samples inside the scene mesh.
+  if (S.query->closed()) {
+    std::vector<char> comp_in;
+    bool any = r.intersecting;
+    if (!r.intersecting) {
+      // No crossing: each connected piece of the link is wholly inside or wholly outside.
+      comp_in.assign(L.samples.component_rep.size(), 0);
+      for (std::size_t c = 0; c < comp_in.size(); ++c) {
+        const Vec3 p = pose * L.samples.component_rep[c];
+        if (S.bounds.contains(p) && S.query->signed_distance(p) < 0.0) comp_in[c] = any = true;
+      }
+    }
+    if (any) depth = std::max(depth, vd::deepest_inside(L.samples, pose, *S.query, S.bounds, comp_in));
+  }
+  // Target samples inside a closed link (a target corner poking into a flat link).
+  if (!S.obstacle && L.query->closed()) {
+    const Pose inv = pose.inverse();
+    const vd::SurfaceSamples& T = S.samples;
+    std::vector<char> comp_in;
+    bool any = r.intersecting;
+    if (!r.intersecting) {
+      comp_in.assign(T.component_rep.size(), 0);
+      for (std::size_t c = 0; c < comp_in.size(); ++c) {
+        if (!lb.contains(T.component_rep[c])) continue;
+        const Vec3 q = inv * T.component_rep[c];
+        if (L.bounds.contains(q) && L.query->signed_distance(q) < 0.0) comp_in[c] = any = true;
+      }
+    }
+    if (any) depth = std::max(depth, vd::deepest_inside(T, inv, *L.query, L.bounds, comp_in));
+  }
+  r.depth = depth;
+  r.inside = depth > 0.0;
+  return r;
+}
+
+bool GraspChecker::Impl::touches_occluded(int l, const Pose& pose) const {
+  if (!occluded) return false;
+  const vd::LinkModel& L = links[l];
+  const Eigen::AlignedBox3d lb = vd::transform_box(L.bounds, pose);
+  Eigen::AlignedBox3d ob = occluded_bounds;
+  ob.min().array() -= options.contact_gap;
+  ob.max().array() += options.contact_gap;
+  if (!lb.intersects(ob)) return false;
+  fcl::CollisionRequestd creq;
+  fcl::CollisionResultd cres;
+  fcl::collide(L.fcl.get(), pose, occluded.get(), Pose::Identity(), creq, cres);
+  if (cres.isCollision()) return true;
+  fcl::DistanceRequestd dreq;
+  fcl::DistanceResultd dres;
+  const double d = fcl::distance(L.fcl.get(), pose, occluded.get(), Pose::Identity(), dreq, dres);
+  return d <= options.contact_gap;
+}
+
+double GraspChecker::Impl::link_distance(int l, const Pose& pose, bool active) const {
+  const vd::LinkModel& L = links[l];
+  const vd::FclModel* model = active ? L.fcl_active.get() : L.fcl.get();
+  double best = std::numeric_limits<double>::infinity();
+  if (!model) return best;
+  for (const vd::SceneModel& S : scene) {
+    fcl::CollisionRequestd creq;
+    fcl::CollisionResultd cres;
+    fcl::collide(model, pose, S.fcl.get(), Pose::Identity(), creq, cres);
+    if (cres.isCollision()) return 0.0;
+    fcl::DistanceRequestd dreq;
+    fcl::DistanceResultd dres;
+    const double d = fcl::distance(model, pose, S.fcl.get(), Pose::Identity(), dreq, dres);
+    best = std::min(best, std::max(d, 0.0));
+  }
+  return best;
+}
+
+std::vector<Pose> GraspChecker::Impl::target_frame_poses(const Pose& wrist, const Eigen::VectorXd& dofs) const {
+  check_rigid(wrist, "wrist");
+  std::vector<Pose> poses = hand.link_poses(dofs);
+  for (Pose& p : poses) p = wrist * p;
+  return poses;
+}
+
+CheckResult GraspChecker::Impl::check_poses(const std::vector<Pose>& poses) const {
+  CheckResult r;
+  r.links.resize(links.size());
+  std::vector<std::string> deep, hit_obstacle, occluding;
+  for (std::size_t l = 0; l < links.size(); ++l) {
+    LinkCheck& lc = r.links[l];
+    lc.link = links[l].name;
+    for (std::size_t s = 0; s < scene.size(); ++s) {
+      const vd::PairCheck pc = check_pair(static_cast<int>(l), poses[l], static_cast<int>(s));
+      if (!pc.intersecting && !pc.inside) continue;
+      CollisionPair pair;
+      pair.link = lc.link;
+      pair.other = scene[s].name;
+      pair.obstacle = scene[s].obstacle;
+      pair.intersecting = pc.intersecting;
+      pair.inside = pc.inside;
+      pair.depth = pc.depth;
+      r.pairs.push_back(pair);
+      lc.colliding = true;
+      lc.with.push_back(scene[s].name);
+      lc.depth = std::max(lc.depth, pc.depth);
+      if (scene[s].obstacle) {
+        r.obstacle_collision = true;
+        hit_obstacle.push_back(lc.link + " with " + scene[s].name);
+      } else {
+        r.target_depth = std::max(r.target_depth, pc.depth);
+        if (pc.depth > options.depth_tolerance) deep.push_back(lc.link);
+      }
+    }
+    lc.touches_occluded = touches_occluded(static_cast<int>(l), poses[l]);
+    if (lc.touches_occluded) occluding.push_back(lc.link);
+    r.collision = r.collision || lc.colliding;
+    r.touches_occluded = r.touches_occluded || lc.touches_occluded;
+    r.depth = std::max(r.depth, lc.depth);
+  }
+  r.penetrating = r.target_depth > options.depth_tolerance;
+  r.pruned = r.penetrating || r.obstacle_collision || r.touches_occluded;
+  auto join = [](const std::vector<std::string>& v) {
+    std::string s;
+    for (std::size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + v[i];
+    return s;
+  };
+  std::vector<std::string> why;
+  if (r.penetrating)
+    why.push_back("penetration " + mm(r.target_depth) + " > tolerance " + mm(options.depth_tolerance) +
+                  " (" + join(deep) + " into target)");
+  if (r.obstacle_collision) why.push_back("obstacle collision (" + join(hit_obstacle) + ")");
+  if (r.touches_occluded) why.push_back("touches occluded target faces (" + join(occluding) + ")");
+  for (std::size_t i = 0; i < why.size(); ++i) r.reason += (i ? "; " : "") + why[i];
+  return r;
+}
+
+// ---------------------------------------------------------------- public
+
+GraspChecker::GraspChecker(const Hand& hand, const Mesh& target, const Mask& free,
+                           const std::vector<Obstacle>& obstacles, const CheckOptions& options)
+    : impl_(std::make_shared<const Impl>(hand, target, free, obstacles, options)) {}
+
+CheckResult GraspChecker::check(const Pose& wrist, const Eigen::VectorXd& dofs) const {
+  return impl_->check_poses(impl_->target_frame_poses(wrist, dofs));
+}
+
+std::vector<CheckResult> GraspChecker::check_many(const std::vector<Pose>& wrists,
+                                                  const std::vector<Eigen::VectorXd>& dofs,
+                                                  int threads) const {
+  if (wrists.size() != dofs.size())
+    throw std::invalid_argument("dofs: expected " + std::to_string(wrists.size()) +
+                                " DOF vectors (one per wrist pose), got " + std::to_string(dofs.size()));
+  for (std::size_t k = 0; k < wrists.size(); ++k)
+    check_rigid(wrists[k], ("wrists[" + std::to_string(k) + "]").c_str());
+  std::vector<CheckResult> out(wrists.size());
+  const int t = threads < 0 ? impl_->options.threads : threads;
+  vd::parallel_for(wrists.size(), t, [&](std::size_t k) { out[k] = check(wrists[k], dofs[k]); });
+  return out;
+}
+
+const Hand& GraspChecker::hand() const { return impl_->hand; }
+const Mesh& GraspChecker::target() const { return impl_->target; }
+const Mask& GraspChecker::free() const { return impl_->free; }
+const std::vector<Obstacle>& GraspChecker::obstacles() const { return impl_->obstacles; }
+const CheckOptions& GraspChecker::options() const { return impl_->options; }
+const SurfaceQuery& GraspChecker::target_query() const { return *impl_->scene[0].query; }
+std::vector<int> GraspChecker::link_sample_counts() const {
+  std::vector<int> out;
+  for (const auto& L : impl_->links) out.push_back(static_cast<int>(L.samples.points.rows()));
+  return out;
+}
+int GraspChecker::target_sample_count() const { return static_cast<int>(impl_->scene[0].samples.points.rows()); }
+
+}  // namespace pairgrasp
