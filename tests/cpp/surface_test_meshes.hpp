@@ -12,15 +12,15 @@ using pairgrasp::Mesh;
 using pairgrasp::Points;
 using pairgrasp::Triangles;
 
+/// A mesh from vertex and triangle lists, validated by make_mesh (the arrays are already clean,
+/// so faces keep their order).
 inline Mesh from_arrays(const std::vector<Eigen::Vector3d>& v, const std::vector<Eigen::Vector3i>& f,
                         const char* name) {
-  Mesh m;
-  m.vertices.resize(Eigen::Index(v.size()), 3);
-  m.faces.resize(Eigen::Index(f.size()), 3);
-  for (std::size_t i = 0; i < v.size(); ++i) m.vertices.row(Eigen::Index(i)) = v[i].transpose();
-  for (std::size_t i = 0; i < f.size(); ++i) m.faces.row(Eigen::Index(i)) = f[i].transpose();
-  m.source = name;
-  return m;
+  Points vertices(Eigen::Index(v.size()), 3);
+  Triangles faces(Eigen::Index(f.size()), 3);
+  for (std::size_t i = 0; i < v.size(); ++i) vertices.row(Eigen::Index(i)) = v[i].transpose();
+  for (std::size_t i = 0; i < f.size(); ++i) faces.row(Eigen::Index(i)) = f[i].transpose();
+  return pairgrasp::make_mesh(vertices, faces, name);
 }
 
 /// Axis-aligned box [0,a]x[0,b]x[0,c], two triangles per side, outward winding.

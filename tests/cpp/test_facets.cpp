@@ -1,6 +1,7 @@
 // Unit facets: even areas, area preserved, normals and paint from the source faces, bad input.
 #include <gtest/gtest.h>
 #include <pairgrasp/facets.hpp>
+#include <pairgrasp/paint.hpp>
 
 #include "surface_test_meshes.hpp"
 
@@ -77,7 +78,7 @@ TEST(Facets, BoxEvenAreasAndSidesKeptApart) {
 
 TEST(Facets, FlatSquareDensityMatchesEdge) {
   Mesh m = box(0.2, 0.2, 0.2);
-  m.faces.conservativeResize(2, 3);  // the bottom square alone (an open mesh)
+  m.faces.conservativeResize(2, 3);  // the bottom square alone (an open mesh; only faces are read)
   const double h = 0.005;
   const UnitFacets u = tessellate(m, h);
   expect_consistent(m, u);
@@ -224,4 +225,24 @@ TEST(Facets, FacetLimitNamesAnEdgeThatFits) {
   const UnitFacets u = tessellate(m, fit, Mask(), limit);
   EXPECT_LE(u.points.rows(), limit);
   EXPECT_GT(u.points.rows(), limit * 0.8);  // and it is about the smallest
+}
+
+TEST(Facets, BundledTargetsWithTheirPaint) {
+  for (const char* name : {"box", "mug", "flask"}) {
+    const std::string base = std::string(PAIRGRASP_MODEL_DIR) + "/targets/" + name;
+    const Mesh m = load_mesh(base + ".stl");
+    const Mask paint = load_paint(base + ".paint.json", m);
+    const double extent = (m.vertices.colwise().maxCoeff() - m.vertices.colwise().minCoeff()).maxCoeff();
+    for (double div : {25.0, 40.0}) {
+      const UnitFacets u = tessellate(m, extent / div, paint);
+      expect_consistent(m, u, paint);
+      EXPECT_LE(cv(u.areas), 0.3) << name << " edge " << extent / div;
+      double free_area = 0.0, got = 0.0;
+      for (long f = 0; f < m.faces.rows(); ++f)
+        if (paint[f]) free_area += face_area(m, int(f));
+      for (long i = 0; i < u.areas.size(); ++i)
+        if (u.free[i]) got += u.areas[i];
+      EXPECT_NEAR(got, free_area, 1e-9 * free_area) << name;
+    }
+  }
 }

@@ -2,6 +2,8 @@
 /// @file pair_index.hpp
 /// All target pairs within d_max, their features, and a balanced AABB hierarchy over the
 /// features for tolerance-box queries. Built once per target.
+#include <pairgrasp/facets.hpp>
+#include <pairgrasp/mesh.hpp>
 #include <pairgrasp/types.hpp>
 
 #include <cstddef>
@@ -21,6 +23,13 @@ struct PairIndexOptions {
 /// The target's pair features in a flat, balanced AABB hierarchy.
 ///
 /// Only pairs whose two facets are both free are stored (all pairs when `free` is empty).
+/// Pairs are found with a uniform grid of cell d_max (no all-pairs distance test), counted
+/// before anything is stored (the budget), and kept compactly: 2 int32 indices and 3 float32
+/// features per pair. The hierarchy is a complete binary tree in heap order (children of node k
+/// are 2k+1 and 2k+2) whose every level splits its range of pairs at the median along the axis
+/// of largest extent (extents measured relative to the root box, so metres and cosines weigh
+/// alike); leaves hold 16 to 31 pairs; a node is one float32 box (24 bytes). pairs() and
+/// features() are stored in the tree's leaf order, so a subtree is a contiguous range.
 class PairIndex {
  public:
   /// points, normals: (N,3) facet centres and unit outward normals. free: (N) or empty.
@@ -35,7 +44,10 @@ class PairIndex {
   /// (M,3) features (d, phi, beta_ij + beta_ji) of stored pairs.
   const Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor>& features() const;
   /// Appends to `out` the index of every stored pair whose feature lies in the box
-  /// |feature_k - center_k| <= tolerance_k for k = 0, 1, 2. Exactly the brute-force set.
+  /// |feature_k - center_k| <= tolerance_k for k = 0, 1, 2, in no particular order. The test is
+  /// made on the stored float32 features promoted to double, exactly as a brute-force scan
+  /// (`abs(double(f) - c) <= tol`) makes it, so the set is exactly the brute-force set.
+  /// Throws std::invalid_argument for a non-finite center or a negative or NaN tolerance.
   void query(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance,
              std::vector<std::uint32_t>& out) const;
   /// Same as query(), filled into a fresh vector.
@@ -49,10 +61,38 @@ class PairIndex {
   double d_max() const;
   /// Median nearest-neighbour spacing of the points, metres (a proxy for the facet size h).
   double spacing() const;
+  /// Depth of the hierarchy's leaves (0: the root is the only node).
+  int depth() const;
+  /// (nodes, 6) float32 boxes of the hierarchy in heap order: min d, phi, beta then max.
+  const std::vector<float>& node_boxes() const;
 
   struct Impl;
  private:
   std::shared_ptr<const Impl> impl_;
 };
+
+/// Number of pairs i < j with |p_i - p_j| <= d_max whose two points are free (all points when
+/// `free` is empty): the count PairIndex would store. Grid-based, O(N + pairs).
+/// Throws std::invalid_argument for bad sizes, NaN or d_max <= 0.
+std::size_t count_pairs(const Points& points, double d_max, const Mask& free = Mask(), int threads = 0);
+
+/// The finest facet edge (metres, to within a few per cent) at which tessellate(mesh, edge,
+/// free_faces) gives no more than `max_pairs` stored pairs with d <= d_max. The pair count is
+/// first estimated from the area (facets are about (sqrt(3)/2) edge^2 each and the fraction of
+/// facet pairs within d_max is measured on a coarse tessellation), then checked by tessellating
+/// and counting, refining the edge until the count fits.
+/// Throws std::invalid_argument for d_max <= 0, max_pairs == 0 or a mask of the wrong size.
+double suggest_edge(const Mesh& mesh, double d_max, std::size_t max_pairs, const Mask& free_faces = Mask());
+
+/// A target ready for alignment: its unit facets and their pair index.
+struct TargetIndex {
+  UnitFacets facets;
+  PairIndex index;
+};
+
+/// Tessellates `mesh` at `edge` (metres; 0: suggest_edge(mesh, options.d_max, options.max_pairs))
+/// and indexes the pairs of its free facets.
+TargetIndex build_target_index(const Mesh& mesh, double edge, const Mask& free_faces = Mask(),
+                               const PairIndexOptions& options = {});
 
 }  // namespace pairgrasp

@@ -1,0 +1,441 @@
+#include <pairgrasp/error.hpp>
+#include <pairgrasp/pair_index.hpp>
+
+#include "surface_feature.hpp"
+#include "surface_grid.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <thread>
+
+namespace pairgrasp {
+namespace {
+
+constexpr int kLeafSize = 16;           // leaves hold kLeafSize .. 2 * kLeafSize pairs
+constexpr double kUnitTolerance = 1e-6; // |1 - |n|| allowed for a unit normal
+
+std::string fmt(double v, int precision = 4) {
+  std::ostringstream s;
+  s.precision(precision);
+  s << v;
+  return s.str();
+}
+
+void check_points(const char* what, const Points& p) {
+  for (Eigen::Index i = 0; i < p.rows(); ++i)
+    if (!p.row(i).allFinite())
+      throw std::invalid_argument(std::string(what) + ": row " + std::to_string(i) + " is not finite");
+}
+
+void check_normals(const Points& n) {
+  check_points("normals", n);
+  for (Eigen::Index i = 0; i < n.rows(); ++i) {
+    const double len = n.row(i).norm();
+    if (!(std::abs(len - 1.0) <= kUnitTolerance))
+      throw std::invalid_argument("normals: row " + std::to_string(i) + " has length " + fmt(len, 8) +
+                                  ", expected unit length");
+  }
+}
+
+void check_d_max(double d_max) {
+  if (!std::isfinite(d_max) || d_max <= 0.0)
+    throw std::invalid_argument("d_max: expected a positive finite distance in metres, got " + fmt(d_max));
+}
+
+/// The free points' indices, and a grid of cell >= d_max over them.
+struct PairGrid {
+  std::vector<std::int32_t> active;  // indices of the points taking part
+  detail::StaticGrid grid;           // over active (item k is point active[k])
+};
+
+PairGrid make_pair_grid(const Points& points, const Mask& free, double d_max) {
+  PairGrid g;
+  const Eigen::Index n = points.rows();
+  g.active.reserve(n);
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (free.size() == 0 || free[i]) g.active.push_back(std::int32_t(i));
+  if (g.active.empty()) return g;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (auto i : g.active) {
+    lo = lo.cwiseMin(points.row(i).transpose());
+    hi = hi.cwiseMax(points.row(i).transpose());
+  }
+  g.grid.build(detail::GridFrame(lo, hi, d_max), g.active.size(),
+               [&](std::size_t k) { return points.row(g.active[k]).data(); });
+  return g;
+}
+
+/// Calls visit(i, j) for every pair i < j of active points with d <= d_max, for the points
+/// active[kb..ke). Per point i, partners come in a fixed order.
+template <class Visit>
+void visit_pairs(const Points& points, const PairGrid& g, double d_max, std::size_t kb, std::size_t ke,
+                 Visit visit) {
+  const auto& items = g.grid.items();
+  for (std::size_t k = kb; k < ke; ++k) {
+    const std::int32_t i = g.active[k];
+    const double* p = points.row(i).data();
+    const Eigen::Array3i c = g.grid.frame().coords(p);
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const auto r = g.grid.cell(c[0] + dx, c[1] + dy, c[2] + dz);
+          for (auto q = r.first; q < r.second; ++q) {
+            const std::int32_t j = g.active[items[q]];
+            if (j <= i) continue;
+            const double* o = points.row(j).data();
+            const double x = p[0] - o[0], y = p[1] - o[1], z = p[2] - o[2];
+            const double d = std::sqrt(x * x + y * y + z * z);
+            if (d <= d_max) visit(i, j);
+          }
+        }
+  }
+}
+
+/// Per active point, the number of partners j > i within d_max.
+std::vector<std::size_t> count_per_point(const Points& points, const PairGrid& g, double d_max, int threads) {
+  std::vector<std::size_t> counts(g.active.size(), 0);
+  detail::parallel_chunks(g.active.size(), threads, [&](std::size_t b, std::size_t e, int) {
+    for (std::size_t k = b; k < e; ++k) {
+      std::size_t c = 0;
+      visit_pairs(points, g, d_max, k, k + 1, [&](std::int32_t, std::int32_t) { ++c; });
+      counts[k] = c;
+    }
+  });
+  return counts;
+}
+
+double median_nn_spacing(const Points& points, int threads) {
+  const Eigen::Index n = points.rows();
+  if (n < 2) return 0.0;
+  const Eigen::Vector3d lo = points.colwise().minCoeff().transpose();
+  const Eigen::Vector3d hi = points.colwise().maxCoeff().transpose();
+  const double diag = (hi - lo).norm();
+  if (!(diag > 0.0)) return 0.0;
+  detail::StaticGrid grid;
+  grid.build(detail::GridFrame(lo, hi, diag / std::sqrt(double(n))), std::size_t(n),
+             [&](std::size_t i) { return points.row(Eigen::Index(i)).data(); });
+  const double cell = grid.frame().cell();
+  std::vector<double> nn(n);
+  detail::parallel_chunks(std::size_t(n), threads, [&](std::size_t b, std::size_t e, int) {
+    for (std::size_t i = b; i < e; ++i) {
+      const double* p = points.row(Eigen::Index(i)).data();
+      const Eigen::Array3i c = grid.frame().coords(p);
+      double best = std::numeric_limits<double>::infinity();
+      for (int ring = 0;; ++ring) {
+        detail::for_each_ring_cell(c, ring, [&](int x, int y, int z) {
+          const auto r = grid.cell(x, y, z);
+          for (auto q = r.first; q < r.second; ++q) {
+            const std::uint32_t j = grid.items()[q];
+            if (j == i) continue;
+            const double* o = points.row(j).data();
+            const double dx = p[0] - o[0], dy = p[1] - o[1], dz = p[2] - o[2];
+            best = std::min(best, dx * dx + dy * dy + dz * dz);
+          }
+        });
+        // Points beyond ring r are farther than r cells.
+        if (best <= (ring * cell) * (ring * cell) || ring * cell > 2 * diag + cell) break;
+      }
+      nn[i] = std::sqrt(best);
+    }
+  });
+  const std::size_t mid = nn.size() / 2;
+  std::nth_element(nn.begin(), nn.begin() + mid, nn.end());
+  double m = nn[mid];
+  if (nn.size() % 2 == 0) m = 0.5 * (m + *std::max_element(nn.begin(), nn.begin() + mid));
+  return m;
+}
+
+struct Record {
+  float f[3];
+  std::int32_t i, j;
+};
+
+}  // namespace
+
+// ====================================================================== PairIndex::Impl
+struct PairIndex::Impl {
+  Points points, normals;
+  Mask free;
+  double d_max = 0.0;
+  double spacing = 0.0;
+  Eigen::Matrix<std::int32_t, Eigen::Dynamic, 2, Eigen::RowMajor> pairs;
+  Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> features;
+  std::vector<float> boxes;  // 6 per node, heap order
+  int depth = 0;
+
+  void build_tree(std::vector<Record>& rec, int threads);
+};
+
+void PairIndex::Impl::build_tree(std::vector<Record>& rec, int threads) {
+  const std::size_t m = rec.size();
+  depth = 0;
+  while ((m >> (depth + 1)) >= std::size_t(kLeafSize)) ++depth;
+  const std::size_t nodes = (std::size_t(2) << depth) - 1;
+  boxes.assign(6 * nodes, 0.0f);
+  if (m == 0) return;
+
+  auto box_of = [&](std::size_t b, std::size_t e, float* out) {
+    float lo[3] = {rec[b].f[0], rec[b].f[1], rec[b].f[2]}, hi[3] = {lo[0], lo[1], lo[2]};
+    for (std::size_t k = b + 1; k < e; ++k)
+      for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], rec[k].f[a]), hi[a] = std::max(hi[a], rec[k].f[a]);
+    for (int a = 0; a < 3; ++a) out[a] = lo[a], out[3 + a] = hi[a];
+  };
+  box_of(0, m, &boxes[0]);
+  double scale[3];
+  for (int a = 0; a < 3; ++a) {
+    const double ext = double(boxes[3 + a]) - double(boxes[a]);
+    scale[a] = ext > 0.0 ? 1.0 / ext : 0.0;
+  }
+  int parallel_depth = 0;
+  while ((1 << (parallel_depth + 1)) <= threads && parallel_depth < depth) ++parallel_depth;
+
+  // Recursive median split; the box of `node` is already set.
+  std::function<void(std::size_t, std::size_t, std::size_t, int)> split = [&](std::size_t node, std::size_t b,
+                                                                              std::size_t e, int level) {
+    if (level == depth) return;
+    const float* bx = &boxes[6 * node];
+    int axis = 0;
+    double best = -1.0;
+    for (int a = 0; a < 3; ++a) {
+      const double ext = (double(bx[3 + a]) - double(bx[a])) * scale[a];
+      if (ext > best) best = ext, axis = a;
+    }
+    const std::size_t mid = b + (e - b) / 2;
+    std::nth_element(rec.begin() + b, rec.begin() + mid, rec.begin() + e,
+                     [axis](const Record& x, const Record& y) { return x.f[axis] < y.f[axis]; });
+    const std::size_t l = 2 * node + 1, r = 2 * node + 2;
+    auto left = [&, l, b, mid, level] {
+      box_of(b, mid, &boxes[6 * l]);
+      split(l, b, mid, level + 1);
+    };
+    auto right = [&, r, mid, e, level] {
+      box_of(mid, e, &boxes[6 * r]);
+      split(r, mid, e, level + 1);
+    };
+    if (level < parallel_depth) {
+      std::thread t(left);
+      right();
+      t.join();
+    } else {
+      left();
+      right();
+    }
+  };
+  split(0, 0, m, 0);
+}
+
+PairIndex::PairIndex(const Points& points, const Points& normals, const Mask& free,
+                     const PairIndexOptions& options) {
+  detail::check_size("normals: rows", points.rows(), normals.rows());
+  if (free.size() != 0) detail::check_size("free: size", points.rows(), free.size());
+  check_d_max(options.d_max);
+  if (points.rows() > std::numeric_limits<std::int32_t>::max())
+    throw std::invalid_argument("points: more than 2^31 - 1 rows");
+  check_points("points", points);
+  check_normals(normals);
+  const int threads = detail::resolve_threads(options.threads, std::size_t(points.rows()) / 256 + 1);
+
+  auto impl = std::make_shared<Impl>();
+  impl->points = points;
+  impl->normals = normals;
+  impl->free = free;
+  impl->d_max = options.d_max;
+
+  // Count first: refuse before storing anything.
+  const PairGrid g = make_pair_grid(points, free, options.d_max);
+  const std::vector<std::size_t> counts = count_per_point(points, g, options.d_max, threads);
+  std::vector<std::size_t> offset(counts.size() + 1, 0);
+  for (std::size_t k = 0; k < counts.size(); ++k) offset[k + 1] = offset[k] + counts[k];
+  const std::size_t m = offset.back();
+  const std::size_t limit = std::min<std::size_t>(options.max_pairs, std::numeric_limits<std::uint32_t>::max());
+  if (m > limit) {
+    const double n = double(g.active.size());
+    const double ratio = double(m) / double(std::max<std::size_t>(limit, 1));
+    const long long fit = static_cast<long long>(std::floor(n / std::sqrt(ratio)));
+    std::ostringstream msg;
+    msg << "max_pairs: " << g.active.size() << (free.size() ? " free" : "") << " facets give " << m
+        << " pairs with d <= d_max = " << fmt(options.d_max) << " m, more than the budget of " << limit
+        << " pairs; about " << fit << " facets would fit (pairs grow as facets^2: coarsen the facet edge by x"
+        << fmt(std::pow(ratio, 0.25), 3) << " = (pairs/budget)^(1/4), or raise max_pairs)";
+    throw BudgetError(msg.str());
+  }
+
+  std::vector<Record> rec(m);
+  detail::parallel_chunks(g.active.size(), threads, [&](std::size_t b, std::size_t e, int) {
+    for (std::size_t k = b; k < e; ++k) {
+      std::size_t at = offset[k];
+      visit_pairs(points, g, options.d_max, k, k + 1, [&](std::int32_t i, std::int32_t j) {
+        double f[3];
+        detail::pair_feature_raw(points.row(i).data(), normals.row(i).data(), points.row(j).data(),
+                                 normals.row(j).data(), f);
+        Record& r = rec[at++];
+        r.f[0] = float(f[0]), r.f[1] = float(f[1]), r.f[2] = float(f[2]);
+        r.i = i, r.j = j;
+      });
+    }
+  });
+
+  impl->build_tree(rec, threads);
+  impl->pairs.resize(Eigen::Index(m), 2);
+  impl->features.resize(Eigen::Index(m), 3);
+  detail::parallel_chunks(m, threads, [&](std::size_t b, std::size_t e, int) {
+    for (std::size_t k = b; k < e; ++k) {
+      impl->pairs(k, 0) = rec[k].i, impl->pairs(k, 1) = rec[k].j;
+      for (int a = 0; a < 3; ++a) impl->features(k, a) = rec[k].f[a];
+    }
+  });
+  std::vector<Record>().swap(rec);
+  impl->spacing = median_nn_spacing(points, threads);
+  impl_ = std::move(impl);
+}
+
+std::size_t PairIndex::size() const { return std::size_t(impl_->pairs.rows()); }
+const Eigen::Matrix<std::int32_t, Eigen::Dynamic, 2, Eigen::RowMajor>& PairIndex::pairs() const {
+  return impl_->pairs;
+}
+const Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor>& PairIndex::features() const {
+  return impl_->features;
+}
+const Points& PairIndex::points() const { return impl_->points; }
+const Points& PairIndex::normals() const { return impl_->normals; }
+const Mask& PairIndex::free() const { return impl_->free; }
+double PairIndex::d_max() const { return impl_->d_max; }
+double PairIndex::spacing() const { return impl_->spacing; }
+int PairIndex::depth() const { return impl_->depth; }
+const std::vector<float>& PairIndex::node_boxes() const { return impl_->boxes; }
+
+std::size_t PairIndex::nbytes() const {
+  const Impl& s = *impl_;
+  return sizeof(Impl) + std::size_t(s.pairs.size()) * sizeof(std::int32_t) +
+         std::size_t(s.features.size()) * sizeof(float) + s.boxes.size() * sizeof(float) +
+         std::size_t(s.points.size() + s.normals.size()) * sizeof(double) + std::size_t(s.free.size());
+}
+
+void PairIndex::query(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance,
+                      std::vector<std::uint32_t>& out) const {
+  if (!center.allFinite())
+    throw std::invalid_argument("center: expected finite values, got (" + fmt(center[0]) + ", " +
+                                fmt(center[1]) + ", " + fmt(center[2]) + ")");
+  for (int a = 0; a < 3; ++a)
+    if (!(tolerance[a] >= 0.0))
+      throw std::invalid_argument("tolerance: expected non-negative values, got (" + fmt(tolerance[0]) + ", " +
+                                  fmt(tolerance[1]) + ", " + fmt(tolerance[2]) + ")");
+  const Impl& s = *impl_;
+  const std::size_t m = std::size_t(s.pairs.rows());
+  if (m == 0) return;
+  const double c[3] = {center[0], center[1], center[2]};
+  const double t[3] = {tolerance[0], tolerance[1], tolerance[2]};
+  const float* feat = s.features.data();
+  struct Item {
+    std::uint32_t node, b, e;
+    int level;
+  };
+  Item stack[64];
+  int top = 0;
+  stack[top++] = {0, 0, std::uint32_t(m), 0};
+  while (top > 0) {
+    const Item it = stack[--top];
+    const float* bx = &s.boxes[6 * std::size_t(it.node)];
+    bool disjoint = false, inside = true;
+    for (int a = 0; a < 3; ++a) {
+      const double lo = bx[a], hi = bx[3 + a];
+      // {f : |f - c| <= t} (in double) is an interval, so testing the box's ends is exact.
+      if ((hi < c[a] && c[a] - hi > t[a]) || (lo > c[a] && lo - c[a] > t[a])) {
+        disjoint = true;
+        break;
+      }
+      inside = inside && std::abs(lo - c[a]) <= t[a] && std::abs(hi - c[a]) <= t[a];
+    }
+    if (disjoint) continue;
+    if (inside) {
+      for (std::uint32_t k = it.b; k < it.e; ++k) out.push_back(k);
+      continue;
+    }
+    if (it.level == s.depth) {
+      for (std::uint32_t k = it.b; k < it.e; ++k) {
+        const float* f = feat + 3 * std::size_t(k);
+        if (std::abs(double(f[0]) - c[0]) <= t[0] && std::abs(double(f[1]) - c[1]) <= t[1] &&
+            std::abs(double(f[2]) - c[2]) <= t[2])
+          out.push_back(k);
+      }
+      continue;
+    }
+    const std::uint32_t mid = it.b + (it.e - it.b) / 2;
+    stack[top++] = {2 * it.node + 2, mid, it.e, it.level + 1};
+    stack[top++] = {2 * it.node + 1, it.b, mid, it.level + 1};
+  }
+}
+
+std::vector<std::uint32_t> PairIndex::query(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance) const {
+  std::vector<std::uint32_t> out;
+  query(center, tolerance, out);
+  return out;
+}
+
+// ====================================================================== free functions
+std::size_t count_pairs(const Points& points, double d_max, const Mask& free, int threads) {
+  if (free.size() != 0) detail::check_size("free: size", points.rows(), free.size());
+  check_d_max(d_max);
+  check_points("points", points);
+  const PairGrid g = make_pair_grid(points, free, d_max);
+  const auto counts =
+      count_per_point(points, g, d_max, detail::resolve_threads(threads, g.active.size() / 256 + 1));
+  std::size_t m = 0;
+  for (auto c : counts) m += c;
+  return m;
+}
+
+double suggest_edge(const Mesh& mesh, double d_max, std::size_t max_pairs, const Mask& free_faces) {
+  check_d_max(d_max);
+  if (max_pairs == 0) throw std::invalid_argument("max_pairs: expected at least 1, got 0");
+  // Coarse tessellation (about 1500 facets) to measure the fraction of facet pairs within d_max.
+  double area = 0.0;
+  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) {
+    if (mesh.faces.row(f).minCoeff() < 0 || mesh.faces.row(f).maxCoeff() >= mesh.vertices.rows()) continue;
+    const Eigen::Vector3d a = mesh.vertices.row(mesh.faces(f, 0)).transpose();
+    const Eigen::Vector3d b = mesh.vertices.row(mesh.faces(f, 1)).transpose();
+    const Eigen::Vector3d c = mesh.vertices.row(mesh.faces(f, 2)).transpose();
+    area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  if (!(area > 0.0) || !std::isfinite(area)) throw std::invalid_argument("mesh: has no surface area");
+  const double facet_area_per_edge2 = 0.86602540378443865;
+  const double coarse_edge = std::sqrt(area / (facet_area_per_edge2 * 1500.0));
+  const UnitFacets coarse = tessellate(mesh, coarse_edge, free_faces);
+  const double n = double(coarse.points.rows());
+  // At least one pair, so that a d_max below the coarse spacing still gives a finite estimate.
+  const double coarse_pairs = std::max(1.0, double(count_pairs(coarse.points, d_max, coarse.free)));
+  const double fraction = coarse_pairs / (0.5 * n * n);
+  const double n_fit = std::max(1.0, std::sqrt(2.0 * double(max_pairs) / fraction));
+  double edge = std::sqrt(area / (facet_area_per_edge2 * n_fit));
+  // Check and refine: the pair count scales about as edge^-4. Keep the finest edge that fits.
+  double best = std::numeric_limits<double>::infinity();
+  for (int iter = 0; iter < 12; ++iter) {
+    const UnitFacets f = tessellate(mesh, edge, free_faces);
+    const double pairs = double(count_pairs(f.points, d_max, f.free));
+    if (pairs <= double(max_pairs)) {
+      best = std::min(best, edge);
+      if (pairs >= 0.95 * double(max_pairs)) break;
+    }
+    const double next = pairs > 0.0 ? edge * std::pow(pairs / (0.975 * double(max_pairs)), 0.25) : 0.5 * edge;
+    if (next >= best) break;  // would only coarsen past an edge that already fits
+    edge = next;
+  }
+  if (!std::isfinite(best))
+    throw std::invalid_argument("max_pairs: found no facet edge whose pairs fit a budget of " +
+                                std::to_string(max_pairs) + " pairs");
+  return best;
+}
+
+TargetIndex build_target_index(const Mesh& mesh, double edge, const Mask& free_faces,
+                               const PairIndexOptions& options) {
+  if (edge == 0.0) edge = suggest_edge(mesh, options.d_max, options.max_pairs, free_faces);
+  UnitFacets facets = tessellate(mesh, edge, free_faces);
+  PairIndex index(facets.points, facets.normals, facets.free, options);
+  return TargetIndex{std::move(facets), std::move(index)};
+}
+
+}  // namespace pairgrasp
