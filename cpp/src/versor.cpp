@@ -27,9 +27,10 @@ struct Pairing {
 };
 
 struct Hyp {
-  Quaterniond q;
-  int s = 0;          // satisfied pairings
-  double rms = 0.0;   // rms angle over satisfied pairings
+  Quaterniond q;        // w >= 0
+  int s = 0;            // satisfied pairings
+  unsigned mask = 0;    // which
+  double rms = 0.0;     // rms angle over satisfied pairings
 };
 
 Quaterniond from_axis_angle(const Vector3d& m, double theta) {
@@ -41,10 +42,13 @@ Quaterniond from_axis_angle(const Vector3d& m, double theta) {
   return q;
 }
 
-// Least-squares angle about the unit axis m over the pairings in `mask`: maximises
-// sum_k B_k . R(theta) A_k, i.e. theta = atan2(sum m.(A x B), sum A.B - (m.A)(m.B)) (eq. 18 made
-// signed). Returns false when every pairing lies along m (no angle information).
-bool axis_angle(const std::array<Pairing, 3>& p, unsigned mask, const Vector3d& m, double& theta) {
+// Least-squares rotation about the unit axis m over the pairings in `mask`: the angle maximising
+// sum_k B_k . R(theta) A_k is theta = atan2(num, den), num = sum m.(A x B),
+// den = sum A.B - (m.A)(m.B) (eq. 18 made signed). The versor is built from (num, den) without
+// trigonometry: with r = |(num, den)|, (cos theta/2, sin theta/2 m) is proportional to
+// (r + den, num m) and to (num, (r - den) m); the first is used for den >= 0, the second (exact
+// at a half turn) otherwise. Returns false when every pairing lies along m (no angle information).
+bool axis_rotation(const std::array<Pairing, 3>& p, unsigned mask, const Vector3d& m, Quaterniond& q) {
   double num = 0.0, den = 0.0, weight = 0.0;
   for (int k = 0; k < 3; ++k) {
     if (!(mask & (1u << k)) || !p[k].valid) continue;
@@ -53,10 +57,17 @@ bool axis_angle(const std::array<Pairing, 3>& p, unsigned mask, const Vector3d& 
     const double ma = m.dot(a), mb = m.dot(b);
     num += m.dot(a.cross(b));
     den += a.dot(b) - ma * mb;
-    weight += std::sqrt(std::max(0.0, (1.0 - ma * ma) * (1.0 - mb * mb)));
+    weight += std::max(0.0, (1.0 - ma * ma) * (1.0 - mb * mb));
   }
-  if (weight < 1e-12 || num * num + den * den < 1e-28) return false;
-  theta = std::atan2(num, den);
+  const double r2 = num * num + den * den;
+  if (weight < 1e-24 || r2 < 1e-28) return false;
+  // (1 + cos, sin) ~ (sin, 1 - cos): use the form without cancellation.
+  const double r = std::sqrt(r2);
+  if (den >= 0)
+    q = Quaterniond(r + den, num * m.x(), num * m.y(), num * m.z());
+  else
+    q = Quaterniond(num, (r - den) * m.x(), (r - den) * m.y(), (r - den) * m.z());
+  q.normalize();
   return true;
 }
 
@@ -64,24 +75,20 @@ bool axis_angle(const std::array<Pairing, 3>& p, unsigned mask, const Vector3d& 
 // residual angle is 2 asin(|R.A - B| / 2).
 void score(const std::array<Pairing, 3>& p, double chord, Hyp& h) {
   h.s = 0;
+  h.mask = 0;
   double sum = 0.0;
+  const Eigen::Matrix3d r = h.q.toRotationMatrix();
   for (int k = 0; k < 3; ++k) {
     if (!p[k].valid) continue;
-    const double c2 = (h.q * p[k].a - p[k].b).squaredNorm();
+    const double c2 = (r * p[k].a - p[k].b).squaredNorm();
     if (c2 <= chord * chord) {
       ++h.s;
+      h.mask |= 1u << k;
       const double ang = 2.0 * std::asin(std::min(1.0, 0.5 * std::sqrt(c2)));
       sum += ang * ang;
     }
   }
   h.rms = h.s ? std::sqrt(sum / h.s) : 0.0;
-}
-
-unsigned satisfied_mask(const std::array<Pairing, 3>& p, double chord, const Quaterniond& q) {
-  unsigned mask = 0;
-  for (int k = 0; k < 3; ++k)
-    if (p[k].valid && (q * p[k].a - p[k].b).squaredNorm() <= chord * chord) mask |= 1u << k;
-  return mask;
 }
 
 // Orthonormal frame with first axis x and second axis in the plane of x and y. Needs x, y not
@@ -99,42 +106,73 @@ Eigen::Matrix3d triad(const Vector3d& x, const Vector3d& y) {
 struct HypSet {
   std::array<Hyp, kMaxHyp> h;
   int n = 0;
-  void add(const Quaterniond& q) {
-    if (n < kMaxHyp) h[n++].q = q;
+  // Adds and scores q; returns the hypothesis or nullptr when full.
+  const Hyp* add(const Quaterniond& q, const std::array<Pairing, 3>& p, double chord) {
+    if (n >= kMaxHyp) return nullptr;
+    Hyp& x = h[n++];
+    x.q = q;
+    if (x.q.w() < 0) x.q.coeffs() = -x.q.coeffs();
+    score(p, chord, x);
+    return &x;
   }
 };
 
-// All rotation hypotheses of one point order, scored and polished.
-void order_hypotheses(const std::array<Pairing, 3>& p, const PairPoseOptions& opt, double sin_collinear,
-                      int min_s, HypSet& set) {
-  const double chord = 2.0 * std::sin(0.5 * std::min(opt.angle_tolerance, kPi));
+// Sort key within one order: more satisfied pairings, then smaller residual.
+bool hyp_better(const Hyp& x, const Hyp& y) {
+  if (x.s != y.s) return x.s > y.s;
+  return x.rms < y.rms;
+}
+
+// The distinct rotations of one point order that satisfy at least min_s pairings, best first,
+// polished. Returns their number (written to `out`).
+int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_collinear, int min_s,
+                     double cos_half_tol, std::array<Hyp, kMaxHyp>& out) {
+  HypSet set;
+  int nvalid = 0;
   std::array<Vector3d, 3> d;
   std::array<double, 3> dn{};
   bool all_small = true;
   for (int k = 0; k < 3; ++k) {
     if (!p[k].valid) continue;
+    ++nvalid;
     d[k] = p[k].a - p[k].b;
     dn[k] = d[k].norm();
     if (dn[k] > chord) all_small = false;
   }
   // All differences ~ 0: the identity.
-  if (all_small) set.add(Quaterniond::Identity());
-  // Meetings of two great circles (eq. 17), angle from both pairings. best_sin: the sine between
-  // the two differences of the best-conditioned meeting.
+  if (all_small) set.add(Quaterniond::Identity(), p, chord);
+  // Meetings of two great circles (eq. 17), best conditioned first; the angle comes from both
+  // pairings. Once a meeting's rotation satisfies every pairing, the other meetings can only
+  // give that rotation again, so they are not computed.
+  struct Meeting {
+    Vector3d c;
+    double cn, sine;
+    int i, j;
+  };
+  std::array<Meeting, 3> meet;
+  int nm = 0;
   double best_sin = 0.0;
   for (int i = 0; i < 3; ++i)
     for (int j = i + 1; j < 3; ++j) {
       if (!p[i].valid || !p[j].valid || dn[i] <= kTiny || dn[j] <= kTiny) continue;
-      const Vector3d c = d[i].cross(d[j]);
-      const double cn = c.norm();
-      if (cn <= kParallel * dn[i] * dn[j] || cn <= kTiny) continue;  // parallel: other meetings
-      const Vector3d m = c / cn;
-      double theta;
-      if (axis_angle(p, (1u << i) | (1u << j), m, theta)) {
-        set.add(from_axis_angle(m, theta));
-        best_sin = std::max(best_sin, cn / (dn[i] * dn[j]));
-      }
+      Meeting mt;
+      mt.c = d[i].cross(d[j]);
+      mt.cn = mt.c.norm();
+      mt.sine = mt.cn / (dn[i] * dn[j]);
+      if (mt.sine <= kParallel || mt.cn <= kTiny) continue;  // parallel: the other meetings
+      mt.i = i;
+      mt.j = j;
+      meet[nm++] = mt;
+      best_sin = std::max(best_sin, mt.sine);
     }
+  for (int a = 1; a < nm; ++a)  // at most three: insertion sort, best conditioned first
+    for (int b = a; b > 0 && meet[b].sine > meet[b - 1].sine; --b) std::swap(meet[b], meet[b - 1]);
+  for (int k = 0; k < nm; ++k) {
+    Quaterniond q;
+    if (!axis_rotation(p, (1u << meet[k].i) | (1u << meet[k].j), meet[k].c / meet[k].cn, q)) continue;
+    const Hyp* h = set.add(q, p, chord);
+    if (h && h->s == nvalid) break;
+  }
   // A_k = B_k: the axis is +-A_k (the bisector when they differ within tolerance), the angle
   // comes from another pairing.
   for (int k = 0; k < 3; ++k) {
@@ -142,11 +180,10 @@ void order_hypotheses(const std::array<Pairing, 3>& p, const PairPoseOptions& op
     const Vector3d m = (p[k].a + p[k].b).normalized();
     for (int j = 0; j < 3; ++j) {
       if (j == k || !p[j].valid) continue;
-      double theta;
-      if (axis_angle(p, 1u << j, m, theta)) set.add(from_axis_angle(m, theta));
+      Quaterniond q;
+      if (axis_rotation(p, 1u << j, m, q)) set.add(q, p, chord);
     }
   }
-  for (int k = 0; k < set.n; ++k) score(p, chord, set.h[k]);
   // TRIAD fallback when no meeting is well conditioned (every difference parallel: the axis lies
   // in the plane of coplanar vectors; only the approximate identity / axis = A_k hypotheses are
   // left).
@@ -156,29 +193,33 @@ void order_hypotheses(const std::array<Pairing, 3>& p, const PairPoseOptions& op
         if (i == j || !p[i].valid || !p[j].valid) continue;
         if (p[i].a.cross(p[j].a).norm() <= sin_collinear || p[i].b.cross(p[j].b).norm() <= sin_collinear)
           continue;
-        const Eigen::Matrix3d r = triad(p[i].b, p[j].b) * triad(p[i].a, p[j].a).transpose();
-        Quaterniond q(r);
-        q.normalize();
-        if (q.w() < 0) q.coeffs() = -q.coeffs();
-        const int before = set.n;
-        set.add(q);
-        if (set.n > before) score(p, chord, set.h[set.n - 1]);
+        Quaterniond q(triad(p[i].b, p[j].b) * triad(p[i].a, p[j].a).transpose());
+        set.add(q.normalized(), p, chord);
       }
   }
-  // Polish: least-squares angle about the hypothesis axis over the satisfied pairings.
+  // Best first; drop repeats of a kept rotation; polish the kept ones (least-squares angle about
+  // their axis over the satisfied pairings) unless already exact.
+  std::sort(set.h.begin(), set.h.begin() + set.n, hyp_better);
+  int nout = 0;
   for (int k = 0; k < set.n; ++k) {
-    Hyp& h = set.h[k];
-    if (h.s < min_s) continue;
-    const Vector3d v = h.q.vec();
+    const Hyp& h = set.h[k];
+    if (h.s < min_s) break;
+    bool repeat = false;
+    for (int r = 0; r < nout && !repeat; ++r) repeat = std::abs(out[r].q.coeffs().dot(h.q.coeffs())) >= cos_half_tol;
+    if (repeat) continue;
+    Hyp& o = out[nout++];
+    o = h;
+    if (o.rms <= 1e-12) continue;
+    const Vector3d v = o.q.vec();
     const double vn = v.norm();
     if (vn <= kTiny) continue;
-    double theta;
-    if (!axis_angle(p, satisfied_mask(p, chord, h.q), v / vn, theta)) continue;
     Hyp polished;
-    polished.q = from_axis_angle(v / vn, theta);
+    if (!axis_rotation(p, o.mask, v / vn, polished.q)) continue;
+    if (polished.q.w() < 0) polished.q.coeffs() = -polished.q.coeffs();
     score(p, chord, polished);
-    if (polished.s >= h.s && polished.rms <= h.rms) h = polished;
+    if (polished.s >= o.s && polished.rms <= o.rms) o = polished;
   }
+  return nout;
 }
 
 void check_finite(const char* name, const Vector3d& v) {
@@ -295,6 +336,9 @@ void solve_pair_pose(const Vector3d& gp0, const Vector3d& gp1, const Vector3d& g
 
   // Agreement s(s-1)/2 >= min_agreement  <=>  s >= min_s.
   const int min_s = options.min_agreement <= 1 ? 2 : 3;
+  const double tol = std::min(options.angle_tolerance, kPi);
+  const double chord = 2.0 * std::sin(0.5 * tol);
+  const double cos_half_tol = std::cos(0.5 * tol);  // |q1.q2| >= this  <=>  angle(q1, q2) <= tol
   std::array<Ranked, 2 * kMaxHyp> ranked;
   int nr = 0;
   for (int order = 0; order < 2; ++order) {
@@ -302,21 +346,9 @@ void solve_pair_pose(const Vector3d& gp0, const Vector3d& gp1, const Vector3d& g
     p[0] = {a0, order == 0 ? tn0 : tn1, true};
     p[1] = {a1, order == 0 ? tn1 : tn0, true};
     p[2] = {ug, order == 0 ? ut : Vector3d(-ut), has_u};
-    HypSet set;
-    order_hypotheses(p, options, sin_collinear, min_s, set);
-    // Best first within the order, then drop hypotheses that repeat a kept rotation.
-    std::array<Ranked, kMaxHyp> local;
-    int nl = 0;
-    for (int k = 0; k < set.n; ++k)
-      if (set.h[k].s >= min_s) local[nl++] = {set.h[k], order};
-    std::sort(local.begin(), local.begin() + nl, better);
-    const int first = nr;
-    for (int k = 0; k < nl; ++k) {
-      bool repeat = false;
-      for (int r = first; r < nr && !repeat; ++r)
-        repeat = rotation_distance(ranked[r].h.q, local[k].h.q) <= options.angle_tolerance;
-      if (!repeat) ranked[nr++] = local[k];
-    }
+    std::array<Hyp, kMaxHyp> hyps;
+    const int nh = order_hypotheses(p, chord, sin_collinear, min_s, cos_half_tol, hyps);
+    for (int k = 0; k < nh; ++k) ranked[nr++] = {hyps[k], order};
   }
   if (nr == 0) {
     result.status = PairPoseStatus::NoAgreement;
