@@ -1,0 +1,205 @@
+// Closing the fingers onto contact: closing directions and conservative advancement per DOF.
+#include <pairgrasp/grasp.hpp>
+
+#include <pairgrasp/error.hpp>
+
+#include "collision_internal.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace pairgrasp {
+
+namespace vd = validation_detail;
+using vd::Vec3;
+
+const char* to_string(StopReason reason) {
+  switch (reason) {
+    case StopReason::Contact: return "contact";
+    case StopReason::Limit: return "limit";
+    case StopReason::Blocked: return "blocked";
+    case StopReason::Fixed: return "fixed";
+  }
+  return "unknown";
+}
+
+Eigen::VectorXi closing_directions(const Hand& hand, const Eigen::VectorXd& dofs) {
+  const std::vector<Pose> p0 = hand.link_poses(dofs);  // validates dofs
+  const Eigen::VectorXd lo = hand.dof_lower(), hi = hand.dof_upper();
+  const auto& links = hand.links();
+  Eigen::VectorXi dirs = Eigen::VectorXi::Zero(dofs.size());
+  for (Eigen::Index k = 0; k < dofs.size(); ++k) {
+    const double range = hi[k] - lo[k];
+    if (!(range > 0.0)) continue;
+    const double delta = 1e-6 * range;
+    const double sgn = dofs[k] + delta <= hi[k] ? 1.0 : -1.0;
+    Eigen::VectorXd q1 = dofs;
+    q1[k] += sgn * delta;
+    const std::vector<Pose> p1 = hand.link_poses(q1, true);
+    double num = 0.0, den = 0.0;
+    for (std::size_t l = 0; l < links.size(); ++l) {
+      const Mesh& m = links[l].mesh;
+      for (int f : links[l].active_faces) {
+        const Vec3 a = m.vertices.row(m.faces(f, 0)).transpose(), b = m.vertices.row(m.faces(f, 1)).transpose(),
+                   c = m.vertices.row(m.faces(f, 2)).transpose();
+        const Vec3 cross = (b - a).cross(c - a);
+        const double area = 0.5 * cross.norm();
+        if (!(area > 0.0)) continue;
+        const Vec3 centre = (a + b + c) / 3.0;
+        const Vec3 v = (p1[l] * centre - p0[l] * centre) * (sgn / delta);  // per unit increase
+        const Vec3 n = p0[l].linear() * cross.normalized();
+        num += area * v.dot(n);
+        den += area * v.norm();
+      }
+    }
+    if (!(den > 0.0)) continue;
+    const double score = num / den;
+    dirs[k] = score >= 0.5 ? 1 : (score <= -0.5 ? -1 : 0);
+  }
+  return dirs;
+}
+
+namespace {
+
+// Largest vertex speed (m per unit of DOF k) of the given links at q, moving in direction dir.
+double link_speed(const Hand& hand, const std::vector<int>& links, const Eigen::VectorXd& q, Eigen::Index k,
+                  int dir, double lo, double hi) {
+  const double delta = 1e-6 * (hi - lo);
+  Eigen::VectorXd q1 = q;
+  double step = dir * delta;
+  if (q[k] + step > hi || q[k] + step < lo) step = -step;
+  q1[k] += step;
+  const std::vector<Pose> p0 = hand.link_poses(q), p1 = hand.link_poses(q1, true);
+  double v = 0.0;
+  for (int l : links) {
+    const Mesh& m = hand.links()[l].mesh;
+    const Eigen::Matrix4d dm = p1[l].matrix() - p0[l].matrix();
+    for (Eigen::Index i = 0; i < m.vertices.rows(); ++i) {
+      const Vec3 x = m.vertices.row(i).transpose();
+      v = std::max(v, (dm.topLeftCorner<3, 3>() * x + dm.topRightCorner<3, 1>()).norm());
+    }
+  }
+  return v / std::abs(step);
+}
+
+}  // namespace
+
+CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const Eigen::VectorXd& dofs,
+                          const CloseOptions& options) {
+  const GraspChecker::Impl& I = checker.impl();
+  const Hand& hand = I.hand;
+  check_rigid(wrist, "wrist");
+  const Eigen::Index D = static_cast<Eigen::Index>(hand.dofs().size());
+  CloseResult r;
+  r.start = checker.check(wrist, dofs);  // validates dofs
+  r.start_penetrating = r.start.penetrating || r.start.obstacle_collision;
+  if (options.directions.size() > 0) {
+    detail::check_size("directions", D, options.directions.size());
+    for (Eigen::Index k = 0; k < D; ++k)
+      if (std::abs(options.directions[k]) > 1)
+        throw std::invalid_argument("directions[" + std::to_string(k) + "]: expected -1, 0 or +1, got " +
+                                    std::to_string(options.directions[k]));
+    r.directions = options.directions;
+  } else {
+    r.directions = closing_directions(hand, dofs);
+  }
+  if (options.max_iterations < 1)
+    throw std::invalid_argument("max_iterations: expected >= 1, got " + std::to_string(options.max_iterations));
+
+  const double gap = I.options.contact_gap;
+  const double tol = I.options.depth_tolerance;
+  const Eigen::VectorXd lo = hand.dof_lower(), hi = hand.dof_upper();
+  Eigen::VectorXd q = dofs;
+  r.reasons.assign(D, StopReason::Fixed);
+  r.clearance = Eigen::VectorXd::Constant(D, std::numeric_limits<double>::infinity());
+
+  for (Eigen::Index k = 0; k < D; ++k) {
+    const int dir = r.directions[k];
+    const std::vector<int>& moving = I.dof_links[k];
+    if (dir == 0 || moving.empty()) continue;
+
+    auto distance_at = [&](const Eigen::VectorXd& qq, bool active) {
+      const std::vector<Pose> poses = I.target_frame_poses(wrist, qq);
+      double d = std::numeric_limits<double>::infinity();
+      for (int l : moving) d = std::min(d, I.link_distance(l, poses[l], active));
+      ++r.iterations;
+      return d;
+    };
+
+    // Links already penetrating (beyond the tolerance) or in an obstacle cannot move.
+    {
+      const std::vector<Pose> poses = I.target_frame_poses(wrist, q);
+      bool blocked = false;
+      for (int l : moving)
+        for (std::size_t s = 0; s < I.scene.size() && !blocked; ++s) {
+          const vd::PairCheck pc = I.check_pair(l, poses[l], static_cast<int>(s));
+          if ((pc.intersecting || pc.inside) && (I.scene[s].obstacle || pc.depth > tol)) blocked = true;
+        }
+      if (blocked) {
+        r.reasons[k] = StopReason::Blocked;
+        r.clearance[k] = 0.0;
+        continue;
+      }
+    }
+
+    const double limit = dir > 0 ? hi[k] : lo[k];
+    const double min_step = 1e-3 * (hi[k] - lo[k]);
+    double d = distance_at(q, false);
+    int iterations = 0;
+    StopReason reason = StopReason::Blocked;
+    while (true) {
+      if (d <= gap) {
+        reason = distance_at(q, true) <= gap ? StopReason::Contact : StopReason::Blocked;
+        break;
+      }
+      if (q[k] == limit) {
+        reason = StopReason::Limit;
+        break;
+      }
+      if (++iterations > options.max_iterations) {
+        reason = StopReason::Blocked;
+        break;
+      }
+      const double v = link_speed(hand, moving, q, k, dir, lo[k], hi[k]);
+      double step = v > 0.0 ? (d - 0.5 * gap) / (1.5 * v) : std::numeric_limits<double>::infinity();
+      step = std::max(step, min_step);
+      Eigen::VectorXd q_new = q;
+      q_new[k] = dir > 0 ? std::min(q[k] + step, limit) : std::max(q[k] - step, limit);
+      const double d_new = distance_at(q_new, false);
+      if (d_new > 0.0) {
+        q = q_new;
+        d = d_new;
+        continue;
+      }
+      // The step ends intersecting: bisect between the last free value and it.
+      double a = q[k], b = q_new[k], da = d;
+      for (int it = 0; it < 60 && da > gap; ++it) {
+        Eigen::VectorXd qm = q;
+        qm[k] = 0.5 * (a + b);
+        const double dm = distance_at(qm, false);
+        if (dm > 0.0) {
+          a = qm[k];
+          da = dm;
+        } else {
+          b = qm[k];
+        }
+      }
+      q[k] = a;
+      d = da;
+      if (d > gap) {  // could not get within the gap without intersecting (a gap of ~0)
+        reason = StopReason::Contact;
+        break;
+      }
+    }
+    r.reasons[k] = reason;
+    r.clearance[k] = d;
+  }
+  r.dofs = q;
+  r.check = checker.check(wrist, q);
+  return r;
+}
+
+}  // namespace pairgrasp

@@ -1,0 +1,213 @@
+// Closing onto contact and contacts, against facts from the dimensions: a parallel jaw closes on
+// a box to the box's width, runs to its limit on air, stops at an obstacle plate; its contacts
+// lie on the two gripped faces with normals -+x; the Barrett hand's fingers stop at a box.
+#include <pairgrasp/grasp.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+#include <stdexcept>
+#include <tuple>
+
+#include "validation_test_hands.hpp"
+#include "validation_test_meshes.hpp"
+
+using namespace pairgrasp;
+using Eigen::Vector3d;
+namespace tmesh = pairgrasp::testing_meshes;
+namespace th = pairgrasp::testing_hands;
+
+namespace {
+
+Eigen::VectorXd dofs1(double v) { return Eigen::VectorXd::Constant(1, v); }
+
+// The gripped box: 50 mm wide in x, 40 mm in y, z in [0.06, 0.11] of the jaw's wrist frame
+// (the fingers span z in [0.05, 0.12], pads at x = -+opening/2, 20 mm wide in y).
+Mesh jaw_box(double dx = 0.0) {
+  return tmesh::box_mesh(Vector3d(-0.025 + dx, -0.02, 0.06), Vector3d(0.025 + dx, 0.02, 0.11), 4, "jaw box");
+}
+
+}  // namespace
+
+TEST(Grasp, ClosingDirectionsFollowTheActiveSurfaces) {
+  // Parallel jaw: the opening (pad distance) grows with the DOF, so closing decreases it.
+  const Hand jaw = th::parallel_jaw();
+  EXPECT_EQ(closing_directions(jaw, dofs1(0.04))[0], -1);
+  EXPECT_EQ(closing_directions(jaw, dofs1(0.08))[0], -1);  // at the upper limit too
+  EXPECT_EQ(closing_directions(jaw, dofs1(0.0))[0], -1);
+  // Barrett: flexion curls the fingers' inner faces forward (closes); the spread swings fingers
+  // sideways about the palm normal (does not close).
+  const Hand bh = th::barrett();
+  for (const Eigen::Vector4d q : {Eigen::Vector4d(0, 0, 0, 0), Eigen::Vector4d(0.5, 0.7, 1.2, 0.3),
+                                  Eigen::Vector4d(3.0, 2.0, 2.44, 1.0)}) {
+    const Eigen::VectorXi d = closing_directions(bh, q);
+    EXPECT_EQ(d, Eigen::Vector4i(0, 1, 1, 1)) << "at " << q.transpose() << ": " << d.transpose();
+  }
+  EXPECT_THROW(closing_directions(bh, Eigen::VectorXd::Zero(3)), std::invalid_argument);
+}
+
+TEST(Grasp, ParallelJawClosesToTheBoxWidth) {
+  const Hand jaw = th::parallel_jaw();
+  CheckOptions opt;
+  opt.contact_gap = 0.001;
+  const GraspChecker checker(jaw, jaw_box(), Mask(), {}, opt);
+  const CloseResult r = close_fingers(checker, Pose::Identity(), dofs1(0.08));
+  ASSERT_EQ(r.reasons.size(), 1u);
+  EXPECT_EQ(r.reasons[0], StopReason::Contact);
+  EXPECT_EQ(r.directions[0], -1);
+  // Both pads stop within the gap of the x = -+0.025 faces: opening = 0.05 + 2 * clearance.
+  EXPECT_GT(r.dofs[0], 0.05);
+  EXPECT_LE(r.dofs[0], 0.05 + 2 * opt.contact_gap + 1e-12);
+  EXPECT_NEAR(r.clearance[0], (r.dofs[0] - 0.05) / 2, 1e-9);
+  EXPECT_FALSE(r.start_penetrating);
+  EXPECT_FALSE(r.check.collision);
+  EXPECT_FALSE(r.check.pruned);
+  EXPECT_GT(r.iterations, 0);
+  EXPECT_LT(r.iterations, 100);  // conservative advancement converges in a few steps
+
+  // Contacts: on the two gripped faces only, normals -+x, pads within the gap.
+  const Contacts c = find_contacts(checker, Pose::Identity(), r.dofs);
+  ASSERT_GT(c.points.rows(), 0);
+  int left = 0, right = 0;
+  std::set<std::tuple<int, long, long, long>> cells;
+  for (int k = 0; k < c.points.rows(); ++k) {
+    const Vector3d p = c.points.row(k), n = c.normals.row(k), t = c.target_points.row(k);
+    const bool on_left = p.x() < 0;
+    EXPECT_NEAR(std::abs(t.x()), 0.025, 1e-12);  // on a gripped face
+    EXPECT_NEAR((n - Vector3d(on_left ? -1 : 1, 0, 0)).norm(), 0.0, 1e-12);
+    EXPECT_NEAR(std::abs(p.x()), r.dofs[0] / 2, 1e-12);  // a pad point
+    EXPECT_NEAR(c.distances[k], r.dofs[0] / 2 - 0.025, 1e-12);
+    EXPECT_LE(std::abs(p.y()), 0.01 + 1e-12);            // pad width
+    EXPECT_GE(p.z(), 0.06 - 1e-12);                      // pad overlap with the box in z
+    EXPECT_LE(p.z(), 0.11 + 1e-12);
+    EXPECT_EQ(c.link_names[k], on_left ? "pj_left_finger" : "pj_right_finger");
+    EXPECT_EQ(jaw.links()[c.links[k]].name, c.link_names[k]);
+    (on_left ? left : right)++;
+    // Thinned: at most one contact per link per 4 mm cell.
+    const double cell = opt.contact_cell;
+    EXPECT_TRUE(cells.insert({c.links[k], std::lround(std::floor(p.x() / cell)), std::lround(std::floor(p.y() / cell)),
+                              std::lround(std::floor(p.z() / cell))}).second);
+  }
+  // The 20 mm x 50 mm overlap holds 5..6 x 13..14 cells of 4 mm per pad.
+  EXPECT_GE(left, 5 * 13);
+  EXPECT_LE(left, 6 * 14);
+  EXPECT_EQ(left, right);
+  EXPECT_EQ(c.occluded_count, 0);
+}
+
+TEST(Grasp, ContactsOnOccludedFacesAreOnlyCounted) {
+  const Hand jaw = th::parallel_jaw();
+  const Mesh box = jaw_box();
+  Mask free = Mask::Constant(box.faces.rows(), true);
+  for (int f = 0; f < box.faces.rows(); ++f)
+    if (box.face_normal(f).x() > 0.5) free[f] = false;  // the +x face is held by someone
+  const GraspChecker checker(jaw, box, free);
+  const CloseResult r = close_fingers(checker, Pose::Identity(), dofs1(0.08));
+  EXPECT_EQ(r.reasons[0], StopReason::Contact);
+  EXPECT_TRUE(r.check.touches_occluded);  // the right pad touches the occluded face
+  EXPECT_TRUE(r.check.pruned);
+  const Contacts c = find_contacts(checker, Pose::Identity(), r.dofs);
+  ASSERT_GT(c.points.rows(), 0);
+  for (int k = 0; k < c.points.rows(); ++k) EXPECT_LT(c.normals(k, 0), -0.5);  // -x face only
+  EXPECT_EQ(c.occluded_count, c.points.rows());  // the mirror-image pad, same cell count
+}
+
+TEST(Grasp, ClosingOnAirRunsToTheLimit) {
+  const Hand jaw = th::parallel_jaw();
+  const GraspChecker checker(jaw, jaw_box(1.0));  // the box 1 m away
+  const CloseResult r = close_fingers(checker, Pose::Identity(), dofs1(0.06));
+  EXPECT_EQ(r.reasons[0], StopReason::Limit);
+  EXPECT_EQ(r.dofs[0], 0.0);  // the lower limit
+  EXPECT_FALSE(r.check.collision);
+  EXPECT_EQ(find_contacts(checker, Pose::Identity(), r.dofs).points.rows(), 0);
+}
+
+TEST(Grasp, ClosingStopsAtAnObstacle) {
+  const Hand jaw = th::parallel_jaw();
+  // A plate between the left pad and the box: x in [-0.035, -0.03], spanning the pad (and clear
+  // of the jaw's base, z < 0.05).
+  const Mesh plate = tmesh::box_mesh(Vector3d(-0.035, -0.03, 0.055), Vector3d(-0.03, 0.03, 0.13), 1, "plate");
+  const GraspChecker checker(jaw, jaw_box(), Mask(), {{"plate", plate}});
+  // From opening 0.08 the left pad (x = -0.04) is 5 mm from the plate, the right one 15 mm from
+  // the box: the DOF stops when the left pad reaches the plate, opening = 2 * (0.035 + clearance).
+  const CloseResult r = close_fingers(checker, Pose::Identity(), dofs1(0.08));
+  EXPECT_EQ(r.reasons[0], StopReason::Contact);
+  EXPECT_GT(r.dofs[0], 0.07);
+  EXPECT_LE(r.dofs[0], 0.07 + 2 * checker.options().contact_gap + 1e-12);
+  EXPECT_FALSE(r.check.collision);
+  EXPECT_FALSE(r.check.pruned);
+  // No contact with the target: the right pad is still 10 mm from the box.
+  EXPECT_EQ(find_contacts(checker, Pose::Identity(), r.dofs).points.rows(), 0);
+}
+
+TEST(Grasp, StartingInsideIsBlocked) {
+  const Hand jaw = th::parallel_jaw();
+  const GraspChecker checker(jaw, jaw_box());
+  // Opening 0.03 puts each pad 10 mm inside the 50 mm box.
+  const CloseResult r = close_fingers(checker, Pose::Identity(), dofs1(0.03));
+  EXPECT_TRUE(r.start_penetrating);
+  EXPECT_EQ(r.reasons[0], StopReason::Blocked);
+  EXPECT_EQ(r.dofs[0], 0.03);
+  EXPECT_TRUE(r.check.pruned);
+}
+
+TEST(Grasp, BarrettFingersStopAtABoxEdgeAtTheAnalyticAngle) {
+  const Hand bh = th::barrett();
+  // A box 60 x 60 mm, z in [0.1, 0.15] (above the knuckles, below the distal links). At spread 0
+  // fingers 1 and 2 (x = -+0.025) pivot about x-parallel axes at y = 0.05, z = 0.095, finger 3
+  // (x = 0) mirrored at y = -0.05. The proximal link is 18 mm thick: its inner face lies 9 mm
+  // from the pivot, with normal n = (-cos t, -sin t) in (y, z) at flexion t. It meets the box's
+  // top edge E = (0.03, 0.15) when (E - pivot).n = 0.009, i.e. 0.02 cos t - 0.055 sin t = 0.009;
+  // before that the edge is (E - pivot).n - 0.009 from the face.
+  const Mesh box = tmesh::box_mesh(Vector3d(-0.03, -0.03, 0.1), Vector3d(0.03, 0.03, 0.15), 2, "box");
+  const GraspChecker checker(bh, box);
+  const CloseResult r = close_fingers(checker, Pose::Identity(), Eigen::Vector4d(0, 0, 0, 0));
+  EXPECT_EQ(r.reasons[0], StopReason::Fixed);
+  EXPECT_EQ(r.dofs[0], 0.0);
+  const double t_star = std::acos(0.009 / std::hypot(0.02, 0.055)) - std::atan2(0.055, 0.02);
+  EXPECT_NEAR(t_star, 0.1944, 1e-3);
+  const double gap = checker.options().contact_gap;
+  for (int k = 1; k < 4; ++k) {
+    EXPECT_EQ(r.reasons[k], StopReason::Contact) << "DOF " << k;
+    const double t = r.dofs[k];
+    const double edge_to_face = (0.02 * std::cos(t) - 0.055 * std::sin(t)) - 0.009;
+    EXPECT_LT(t, t_star) << "DOF " << k;
+    EXPECT_GT(edge_to_face, 0.0) << "DOF " << k;
+    EXPECT_LE(edge_to_face, gap + 1e-12) << "DOF " << k;
+    EXPECT_NEAR(r.clearance[k], edge_to_face, 1e-7) << "DOF " << k;
+  }
+  EXPECT_FALSE(r.check.collision);
+  EXPECT_FALSE(r.check.pruned);
+  // Closing is deterministic.
+  const CloseResult again = close_fingers(checker, Pose::Identity(), Eigen::Vector4d(0, 0, 0, 0));
+  EXPECT_EQ(again.dofs, r.dofs);
+  // Contacts on all three proximal links, at the box's top edge (y = -+0.03, z = 0.15).
+  const Contacts c = find_contacts(checker, Pose::Identity(), r.dofs);
+  std::set<std::string> links(c.link_names.begin(), c.link_names.end());
+  EXPECT_EQ(links, (std::set<std::string>{"bh_f1_prox", "bh_f2_prox", "bh_f3_prox"}));
+  for (int k = 0; k < c.points.rows(); ++k) {
+    EXPECT_NEAR(std::abs(c.target_points(k, 1)), 0.03, 1e-9);
+    EXPECT_NEAR(c.target_points(k, 2), 0.15, 1e-9);
+  }
+}
+
+TEST(Grasp, BadInputThrows) {
+  const Hand jaw = th::parallel_jaw();
+  const GraspChecker checker(jaw, jaw_box());
+  CloseOptions o;
+  o.directions = Eigen::VectorXi::Constant(2, 1);
+  EXPECT_THROW(close_fingers(checker, Pose::Identity(), dofs1(0.08), o), std::invalid_argument);
+  o.directions = Eigen::VectorXi::Constant(1, 2);
+  EXPECT_THROW(close_fingers(checker, Pose::Identity(), dofs1(0.08), o), std::invalid_argument);
+  Pose scaled = Pose::Identity();
+  scaled.linear() *= 2.0;
+  EXPECT_THROW(close_fingers(checker, scaled, dofs1(0.08)), std::invalid_argument);
+  EXPECT_THROW(find_contacts(checker, scaled, dofs1(0.08)), std::invalid_argument);
+  EXPECT_THROW(find_contacts(checker, Pose::Identity(), dofs1(0.5)), std::invalid_argument);
+  EXPECT_THROW(close_fingers(checker, Pose::Identity(), Eigen::VectorXd::Zero(2)), std::invalid_argument);
+  EXPECT_STREQ(to_string(StopReason::Contact), "contact");
+  EXPECT_STREQ(to_string(StopReason::Limit), "limit");
+  EXPECT_STREQ(to_string(StopReason::Blocked), "blocked");
+  EXPECT_STREQ(to_string(StopReason::Fixed), "fixed");
+}
