@@ -127,6 +127,14 @@ bool hyp_better(const Hyp& x, const Hyp& y) {
 // polished. Returns their number (written to `out`).
 int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_collinear, int min_s,
                      double cos_half_tol, std::array<Hyp, kMaxHyp>& out) {
+  // Early rejection (exact, no rotation is missed): a rotation that satisfies pairings i and j
+  // within chord c keeps |A_i.A_j - B_i.B_j| <= 2c, since R preserves dot products. When every
+  // pairing must be satisfied, one failing pair rules the order out.
+  if (min_s >= 3) {
+    for (int i = 0; i < 3; ++i)
+      for (int j = i + 1; j < 3; ++j)
+        if (p[i].valid && p[j].valid && std::abs(p[i].a.dot(p[j].a) - p[i].b.dot(p[j].b)) > 2.0 * chord) return 0;
+  }
   HypSet set;
   int nvalid = 0;
   std::array<Vector3d, 3> d;

@@ -453,6 +453,33 @@ TEST(Versor, FuzzDegenerateCombinationsNeverNaN) {
   }
 }
 
+TEST(Versor, MinAgreementKeepsExactlyTheFullyAgreeingCandidates) {
+  // min_agreement = 3 (with its early rejection of orders whose dot products differ) returns the
+  // agreement-3 candidates of the unrestricted solve, no more and no fewer.
+  std::mt19937_64 rng(16);
+  PairPoseOptions all, full;
+  full.min_agreement = 3;
+  std::normal_distribution<double> g;
+  for (int trial = 0; trial < 600; ++trial) {
+    const Rigid T{random_rotation(rng), random_vec(rng, 0.1)};
+    const Vector3d n = random_unit(rng);
+    Pair p = apply(T, random_vec(rng, 0.05), random_vec(rng, 0.05), n, trial % 3 == 0 ? n : random_unit(rng));
+    const double sigma = trial % 2 ? 0.0 : 0.03;
+    p.tn0 = (p.tn0 + random_vec(rng, sigma)).normalized();
+    p.tn1 = (p.tn1 + random_vec(rng, sigma)).normalized();
+    const auto a = solve(p, all), f = solve(p, full);
+    std::vector<Matrix3d> want;
+    for (const auto& c : a.candidates)
+      if (c.agreement == 3) want.push_back(c.rotation);
+    ASSERT_EQ(f.candidates.size(), want.size()) << "trial " << trial;
+    for (std::size_t k = 0; k < want.size(); ++k) {
+      EXPECT_EQ(f.candidates[k].agreement, 3);
+      EXPECT_LT(rot_err(f.candidates[k].rotation, want[k]), 1e-12);
+    }
+    if (want.empty()) EXPECT_NE(f.status, PairPoseStatus::Ok);
+  }
+}
+
 TEST(Versor, BadInputThrows) {
   const Vector3d z = Vector3d::UnitZ(), o = Vector3d::Zero();
   const double nan = std::nan("");
