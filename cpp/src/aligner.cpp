@@ -332,20 +332,24 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
       members[cluster_of[votes[k].slot]].push_back(static_cast<std::uint32_t>(k));
 
   const double pcell = opt.position_tolerance;
+  const Vector3d centroid = gp.colwise().mean().transpose();
   std::vector<AlignedPose> poses;
   for (std::size_t c = 0; c < rclusters.size(); ++c) {
     Quaterniond qc;
     qc.coeffs() = rclusters[c].mean;
-    const Eigen::Matrix3d Rc = qc.toRotationMatrix();
     detail::HashedBins<3> pbins(opt.position_capacity, members[c].size());
     std::vector<std::int32_t> pslot(members[c].size());
-    std::vector<Vector3d> tvals(members[c].size());
     for (std::size_t m = 0; m < members[c].size(); ++m) {
+      // Where the vote puts the constellation's centroid: c_T = R_k c_G + t_k with
+      // t_k = P_T - R_k P_G (eq. 19) and R_k the vote's own rotation. Clustering c_T rather than t
+      // keeps the lever arm of a rotation error to the constellation's size (the wrist origin may
+      // lie far from the contacts).
       const Vote& v = votes[members[c][m]];
       const Correspondence& cr = corr[v.corr];
-      tvals[m] = target_mid(ctx, cr.target_pair) - Rc * gripper_mid(ctx, gpairs[cr.gripper_pair]);
+      const Vector3d ct =
+          target_mid(ctx, cr.target_pair) - vote_quaternion(v) * (gripper_mid(ctx, gpairs[cr.gripper_pair]) - centroid);
       st.position_votes += v.agreement;
-      pslot[m] = pbins.add(detail::position_cell(tvals[m], pcell), tvals[m], v.agreement);
+      pslot[m] = pbins.add(detail::position_cell(ct, pcell), ct, v.agreement);
     }
     st.dropped_position_votes += static_cast<std::size_t>(std::lround(pbins.dropped_weight()));
     if (pbins.saturated()) st.saturated = true;

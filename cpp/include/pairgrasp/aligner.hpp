@@ -20,9 +20,12 @@
 ///     rotation (three agreeing meetings per contact pair).
 ///  3. Position votes: bins are merged into rotation clusters (greedy from the strongest bin,
 ///     taking neighbouring bins whose mean rotation lies within angle_tolerance of the seed's);
-///     for the `rotation_clusters` strongest, each vote gives t = P_T - R.P_G (eq. 19, pair
-///     midpoints, R the cluster's mean rotation) into hashed bins of cell position_tolerance
-///     (at most `position_capacity` per cluster), merged the same way (Euclidean distance).
+///     for the `rotation_clusters` strongest, each vote with rotation R_k gives the translation
+///     t_k = P_T - R_k.P_G (eq. 19, pair midpoints) and votes for where it puts the
+///     constellation's centroid c_G, c_T = R_k.c_G + t_k (the same position, measured near the
+///     contacts so that a rotation error moves it by no more than the constellation's size),
+///     into hashed bins of cell position_tolerance (at most `position_capacity` per cluster),
+///     merged the same way (Euclidean distance).
 ///
 /// Each (rotation, position) cluster becomes a pose. Its rotation is the vote-weighted mean
 /// quaternion of its votes (refined once: votes farther than angle_tolerance from the mean are
@@ -61,9 +64,11 @@ struct AlignerOptions {
   /// one line is underdetermined and skipped. Zero: the angle tolerance.
   double collinear_tolerance = 0.0;
   std::size_t capacity = 1u << 16;           ///< rotation bins held (fixed; see `saturated`)
-  std::size_t position_capacity = 1u << 12;  ///< position bins held per rotation cluster
+  std::size_t position_capacity = 1u << 16;  ///< position bins held per rotation cluster
   std::size_t max_correspondences = 1u << 21;  ///< pass-1 correspondences kept (evenly thinned above)
-  int rotation_clusters = 16;    ///< strongest rotation clusters that get position votes
+  /// Strongest rotation clusters that get position votes. A flat patch supports every rotation
+  /// about its normal about equally (~360 / angle_tolerance clusters), hence the generous default.
+  int rotation_clusters = 128;
   int positions_per_rotation = 4;  ///< position clusters taken per rotation cluster
   int max_poses = 10;            ///< poses returned (best first)
   /// Solver candidates with less agreement do not vote. 3 (default): only rotations that
