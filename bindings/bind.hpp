@@ -13,4 +13,5 @@ void bind_hand(pyb::module_& m);       // bind_hand.cpp: Hand, load_hand, Conste
 void bind_paint(pyb::module_& m);      // bind_paint.cpp: paint files -> per-face free mask
 void bind_surface(pyb::module_& m);    // bind_surface.cpp: tessellate, UnitFacets, pair_feature, PairIndex
 void bind_alignment(pyb::module_& m);  // bind_alignment.cpp: solve_pair_pose, Aligner
+void bind_validation(pyb::module_& m); // bind_validation.cpp: SurfaceQuery, occluded_by, visible_from, GraspChecker
 }  // namespace pairgrasp::py

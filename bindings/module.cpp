@@ -12,4 +12,5 @@ PYBIND11_MODULE(_core, m) {
   pairgrasp::py::bind_paint(m);
   pairgrasp::py::bind_surface(m);
   pairgrasp::py::bind_alignment(m);
+  pairgrasp::py::bind_validation(m);
 }
