@@ -315,8 +315,9 @@ std::size_t PairIndex::nbytes() const {
          std::size_t(s.points.size() + s.normals.size()) * sizeof(double) + std::size_t(s.free.size());
 }
 
-void PairIndex::query(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance,
-                      std::vector<std::uint32_t>& out) const {
+namespace {
+
+void check_box(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance) {
   if (!center.allFinite())
     throw std::invalid_argument("center: expected finite values, got (" + fmt(center[0]) + ", " +
                                 fmt(center[1]) + ", " + fmt(center[2]) + ")");
@@ -324,7 +325,15 @@ void PairIndex::query(const Eigen::Vector3d& center, const Eigen::Vector3d& tole
     if (!(tolerance[a] >= 0.0))
       throw std::invalid_argument("tolerance: expected non-negative values, got (" + fmt(tolerance[0]) + ", " +
                                   fmt(tolerance[1]) + ", " + fmt(tolerance[2]) + ")");
-  const Impl& s = *impl_;
+}
+
+}  // namespace
+
+// Walks the tree for the box |f - center| <= tolerance: whole(b, e) for a subtree wholly inside,
+// one(k) for each single stored pair inside.
+template <class Whole, class One>
+void walk(const PairIndex::Impl& s, const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance, Whole whole,
+          One one) {
   const std::size_t m = std::size_t(s.pairs.rows());
   if (m == 0) return;
   const double c[3] = {center[0], center[1], center[2]};
@@ -334,7 +343,7 @@ void PairIndex::query(const Eigen::Vector3d& center, const Eigen::Vector3d& tole
     std::uint32_t node, b, e;
     int level;
   };
-  Item stack[64];
+  Item stack[72];
   int top = 0;
   stack[top++] = {0, 0, std::uint32_t(m), 0};
   while (top > 0) {
@@ -352,7 +361,7 @@ void PairIndex::query(const Eigen::Vector3d& center, const Eigen::Vector3d& tole
     }
     if (disjoint) continue;
     if (inside) {
-      for (std::uint32_t k = it.b; k < it.e; ++k) out.push_back(k);
+      whole(it.b, it.e);
       continue;
     }
     if (it.level == s.depth) {
@@ -360,7 +369,7 @@ void PairIndex::query(const Eigen::Vector3d& center, const Eigen::Vector3d& tole
         const float* f = feat + 3 * std::size_t(k);
         if (std::abs(double(f[0]) - c[0]) <= t[0] && std::abs(double(f[1]) - c[1]) <= t[1] &&
             std::abs(double(f[2]) - c[2]) <= t[2])
-          out.push_back(k);
+          one(k);
       }
       continue;
     }
@@ -368,6 +377,26 @@ void PairIndex::query(const Eigen::Vector3d& center, const Eigen::Vector3d& tole
     stack[top++] = {2 * it.node + 2, mid, it.e, it.level + 1};
     stack[top++] = {2 * it.node + 1, it.b, mid, it.level + 1};
   }
+}
+
+void PairIndex::query(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance,
+                      std::vector<std::uint32_t>& out) const {
+  check_box(center, tolerance);
+  walk(
+      *impl_, center, tolerance,
+      [&](std::uint32_t b, std::uint32_t e) {
+        for (std::uint32_t k = b; k < e; ++k) out.push_back(k);
+      },
+      [&](std::uint32_t k) { out.push_back(k); });
+}
+
+std::size_t PairIndex::count(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance) const {
+  check_box(center, tolerance);
+  std::size_t n = 0;
+  walk(
+      *impl_, center, tolerance, [&](std::uint32_t b, std::uint32_t e) { n += e - b; },
+      [&](std::uint32_t) { ++n; });
+  return n;
 }
 
 std::vector<std::uint32_t> PairIndex::query(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance) const {

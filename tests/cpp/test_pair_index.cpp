@@ -109,6 +109,7 @@ void check_queries(const PairIndex& idx, unsigned seed, int count) {
     ASSERT_TRUE(std::adjacent_find(got.begin(), got.end()) == got.end()) << "duplicates in the result";
     const auto want = brute_query(idx, c, t);
     ASSERT_EQ(got, want) << "query " << q << " kind " << kind;
+    ASSERT_EQ(idx.count(c, t), want.size()) << "count " << q << " kind " << kind;
     if (kind == 1) EXPECT_GE(got.size(), 1u);
     if (kind == 2) EXPECT_TRUE(got.empty());
     if (kind == 3) EXPECT_EQ(got.size(), idx.size());
@@ -376,6 +377,7 @@ TEST(PairIndex, BadInput) {
   EXPECT_THROW(idx.query(Eigen::Vector3d(NAN, 0, 0), Eigen::Vector3d::Ones()), std::invalid_argument);
   EXPECT_THROW(idx.query(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.1, -0.1, 0.1)), std::invalid_argument);
   EXPECT_THROW(idx.query(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.1, NAN, 0.1)), std::invalid_argument);
+  EXPECT_THROW(idx.count(Eigen::Vector3d(0, INFINITY, 0), Eigen::Vector3d::Ones()), std::invalid_argument);
 }
 
 TEST(SuggestEdge, FinestEdgeThatFitsTheBudget) {

@@ -28,7 +28,7 @@ struct PairIndexOptions {
 /// features per pair. The hierarchy is a complete binary tree in heap order (children of node k
 /// are 2k+1 and 2k+2) whose every level splits its range of pairs at the median along the axis
 /// of largest extent (extents measured relative to the root box, so metres and cosines weigh
-/// alike); leaves hold 16 to 31 pairs; a node is one float32 box (24 bytes). pairs() and
+/// alike); leaves hold 16 to 32 pairs (fewer only when there are fewer); a node is one float32 box (24 bytes). pairs() and
 /// features() are stored in the tree's leaf order, so a subtree is a contiguous range.
 class PairIndex {
  public:
@@ -52,6 +52,9 @@ class PairIndex {
              std::vector<std::uint32_t>& out) const;
   /// Same as query(), filled into a fresh vector.
   std::vector<std::uint32_t> query(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance) const;
+  /// The number of stored pairs query() would return, without listing them (a subtree wholly
+  /// inside the box counts in O(1)). Same errors as query().
+  std::size_t count(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance) const;
   /// Bytes held by the index (pairs, features, tree).
   std::size_t nbytes() const;
 
