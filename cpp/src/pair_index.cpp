@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <type_traits>
 
 namespace pairgrasp {
 namespace {
@@ -205,8 +206,17 @@ void PairIndex::Impl::build_tree(std::vector<Record>& rec, int threads) {
       if (ext > best) best = ext, axis = a;
     }
     const std::size_t mid = b + (e - b) / 2;
-    std::nth_element(rec.begin() + b, rec.begin() + mid, rec.begin() + e,
-                     [axis](const Record& x, const Record& y) { return x.f[axis] < y.f[axis]; });
+    auto select = [&](auto axis_constant) {
+      constexpr int A = decltype(axis_constant)::value;
+      std::nth_element(rec.begin() + b, rec.begin() + mid, rec.begin() + e,
+                       [](const Record& x, const Record& y) { return x.f[A] < y.f[A]; });
+    };
+    if (axis == 0)
+      select(std::integral_constant<int, 0>());
+    else if (axis == 1)
+      select(std::integral_constant<int, 1>());
+    else
+      select(std::integral_constant<int, 2>());
     const std::size_t l = 2 * node + 1, r = 2 * node + 2;
     auto left = [&, l, b, mid, level] {
       box_of(b, mid, &boxes[6 * l]);
