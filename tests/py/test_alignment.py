@@ -256,3 +256,19 @@ def test_aligner_bad_input(target):
         pg.Aligner(index, capacity=0)
     with pytest.raises(ValueError, match="threads"):
         pg.Aligner(index, threads=-1)
+
+
+def test_align_many_takes_hand_constellations(target):
+    from pathlib import Path
+    fp, fn, index = target
+    hand = pg.load_hand(str(Path(__file__).resolve().parents[2] / "models" / "barrett" / "barrett.json"))
+    lo, hi = np.asarray(hand.dof_lower), np.asarray(hand.dof_upper)
+    cs = [hand.constellation(lo + f * (hi - lo), mode="per_link") for f in (0.2, 0.5, 0.8)]
+    assert all(isinstance(c, pg.Constellation) for c in cs)
+    aligner = pg.Aligner(index, threads=2)
+    many = aligner.align_many(cs, return_stats=True)
+    for c, (poses, stats) in zip(cs, many):
+        want, want_stats = aligner.align(c.points, c.normals, return_stats=True)
+        assert stats.correspondences == want_stats.correspondences and stats.gripper_pairs == 21
+        assert [p.votes for p in poses] == [p.votes for p in want]
+        assert all(np.array_equal(p.rotation, q.rotation) for p, q in zip(poses, want))
