@@ -97,31 +97,36 @@ SurfaceSamples make_samples(const Mesh& mesh, double spacing) {
 }
 
 double deepest_inside(const SurfaceSamples& samples, const Pose& to_b, const SurfaceQuery& b,
-                      const Eigen::AlignedBox3d& b_bounds, const std::vector<char>& components) {
+                      const Eigen::AlignedBox3d& b_bounds, const std::vector<char>& components, double known) {
   const Bvh& tree = samples.tree;
-  if (tree.empty()) return 0.0;
+  if (tree.empty()) return known;
   // Best first: nodes ordered by the deepest any of their samples could be. Signed distance is
   // 1-Lipschitz, so a node whose bounding ball (centre c, radius r) has sd(c) >= r is wholly
   // outside, and none of its samples is deeper than r - sd(c).
   struct Entry {
-    double bound;
+    double bound;       // deepest any sample of the node could be
+    double abs_sd;      // |signed distance| of the node's centre
+    Vec3 centre;        // in B's frame
     std::int32_t node;
     bool operator<(const Entry& o) const { return bound < o.bound || (bound == o.bound && node > o.node); }
   };
   std::priority_queue<Entry> queue;
-  auto push = [&](std::int32_t index) {
+  const double inf = std::numeric_limits<double>::infinity();
+  double best = 0.0;
+  // `hint`: an upper bound on the centre's unsigned distance (the parent's plus the offset).
+  auto push = [&](std::int32_t index, double hint) {
     const BvhNode& node = tree.nodes[index];
     const Vec3 lo(node.lo[0], node.lo[1], node.lo[2]), hi(node.hi[0], node.hi[1], node.hi[2]);
     const double radius = 0.5 * (hi - lo).norm();
     const Vec3 c = to_b * (0.5 * (lo + hi));
     // A ball wholly outside B's bounding box is outside B.
     if (box_dist2(c, b_bounds.min().data(), b_bounds.max().data()) > radius * radius) return;
-    const double sd_c = b.signed_distance(c);
-    if (sd_c >= radius) return;
-    queue.push({radius - sd_c, index});
+    const double sd_c = b.signed_distance_hint(c, hint);
+    if (sd_c >= radius || radius - sd_c <= best) return;
+    queue.push({radius - sd_c, std::abs(sd_c), c, index});
   };
-  double best = 0.0;
-  push(0);
+  best = known;
+  push(0, inf);
   while (!queue.empty()) {
     const Entry e = queue.top();
     queue.pop();
@@ -133,12 +138,15 @@ double deepest_inside(const SurfaceSamples& samples, const Pose& to_b, const Sur
         if (!components.empty() && !components[samples.component[i]]) continue;
         const Vec3 p = to_b * Vec3(samples.points.row(i).transpose());
         if (!b_bounds.contains(p)) continue;
-        const double sd = b.signed_distance(p);
+        const double sd = b.signed_distance_hint(p, e.abs_sd + (p - e.centre).norm());
         if (sd < 0.0) best = std::max(best, -sd);
       }
     } else {
-      push(node.first);
-      push(node.first + 1);
+      for (std::int32_t child : {node.first, node.first + 1}) {
+        const BvhNode& cn = tree.nodes[child];
+        const Vec3 cc = to_b * (0.5 * (Vec3(cn.lo[0], cn.lo[1], cn.lo[2]) + Vec3(cn.hi[0], cn.hi[1], cn.hi[2])));
+        push(child, e.abs_sd + (cc - e.centre).norm());
+      }
     }
   }
   return best;
@@ -280,21 +288,8 @@ vd::PairCheck GraspChecker::Impl::check_pair(int l, const Pose& pose, int s) con
   r.intersecting = result.isCollision();
 
   double depth = 0.0;
-  // Link samples inside the scene mesh.
-  if (S.query->closed()) {
-    std::vector<char> comp_in;
-    bool any = r.intersecting;
-    if (!r.intersecting) {
-      // No crossing: each connected piece of the link is wholly inside or wholly outside.
-      comp_in.assign(L.samples.component_rep.size(), 0);
-      for (std::size_t c = 0; c < comp_in.size(); ++c) {
-        const Vec3 p = pose * L.samples.component_rep[c];
-        if (S.bounds.contains(p) && S.query->signed_distance(p) < 0.0) comp_in[c] = any = true;
-      }
-    }
-    if (any) depth = std::max(depth, vd::deepest_inside(L.samples, pose, *S.query, S.bounds, comp_in));
-  }
-  // Target samples inside a closed link (a target corner poking into a flat link).
+  // Target samples inside a closed link (a target corner poking into a flat link); first, as it
+  // is usually the deeper side, so that its depth prunes the other search.
   if (!S.obstacle && L.query->closed()) {
     const Pose inv = pose.inverse();
     const vd::SurfaceSamples& T = S.samples;
@@ -308,7 +303,21 @@ vd::PairCheck GraspChecker::Impl::check_pair(int l, const Pose& pose, int s) con
         if (L.bounds.contains(q) && L.query->signed_distance(q) < 0.0) comp_in[c] = any = true;
       }
     }
-    if (any) depth = std::max(depth, vd::deepest_inside(T, inv, *L.query, L.bounds, comp_in));
+    if (any) depth = vd::deepest_inside(T, inv, *L.query, L.bounds, comp_in, depth);
+  }
+  // Link samples inside the scene mesh.
+  if (S.query->closed()) {
+    std::vector<char> comp_in;
+    bool any = r.intersecting;
+    if (!r.intersecting) {
+      // No crossing: each connected piece of the link is wholly inside or wholly outside.
+      comp_in.assign(L.samples.component_rep.size(), 0);
+      for (std::size_t c = 0; c < comp_in.size(); ++c) {
+        const Vec3 p = pose * L.samples.component_rep[c];
+        if (S.bounds.contains(p) && S.query->signed_distance(p) < 0.0) comp_in[c] = any = true;
+      }
+    }
+    if (any) depth = vd::deepest_inside(L.samples, pose, *S.query, S.bounds, comp_in, depth);
   }
   r.depth = depth;
   r.inside = depth > 0.0;

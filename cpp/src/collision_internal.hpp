@@ -38,13 +38,14 @@ struct SurfaceSamples {
 };
 SurfaceSamples make_samples(const Mesh& mesh, double spacing);
 
-/// Largest depth (m) of the samples inside the closed mesh of `b` (bounds `b_bounds`, in B's
-/// frame), the samples mapped into B's frame by `to_b`; 0 when none is strictly inside. When
-/// `components` is not empty only samples of flagged components count. Branch and bound over
-/// the samples' tree: signed distance is 1-Lipschitz, so a node's ball is skipped when it is
-/// wholly outside or cannot beat the best depth so far.
+/// max(known, largest depth (m) of the samples inside the closed mesh of `b` (bounds
+/// `b_bounds`, in B's frame)), the samples mapped into B's frame by `to_b`. When `components` is
+/// not empty only samples of flagged components count. Best-first branch and bound over the
+/// samples' tree: signed distance is 1-Lipschitz, so a node's ball is skipped when it is wholly
+/// outside or cannot beat the best depth so far (starting from `known`).
 double deepest_inside(const SurfaceSamples& samples, const Pose& to_b, const SurfaceQuery& b,
-                      const Eigen::AlignedBox3d& b_bounds, const std::vector<char>& components);
+                      const Eigen::AlignedBox3d& b_bounds, const std::vector<char>& components,
+                      double known = 0.0);
 
 /// A hand link ready for checks.
 struct LinkModel {

@@ -97,7 +97,7 @@ struct SurfaceQuery::Impl {
   Hit closest(const Vec3& p, double max_d) const;
   Vec3 pseudo_normal(const Hit& h, bool& reliable) const;
   int parity_inside(const Vec3& p) const;  // 1 inside, 0 outside, -1 undecided
-  double signed_distance(const Vec3& p, Hit& h) const;
+  double signed_distance(const Vec3& p, Hit& h, double bound = std::numeric_limits<double>::infinity()) const;
   // Calls leaf_fn(leaf position) for the triangles of every leaf the segment [0, t_max] of the
   // ray meets; t_max is re-read at every node so a caller may shrink it. leaf_fn returns false
   // to stop.
@@ -335,8 +335,9 @@ int SurfaceQuery::Impl::parity_inside(const Vec3& p) const {
   return 2 * votes_in > votes ? 1 : 0;
 }
 
-double SurfaceQuery::Impl::signed_distance(const Vec3& p, Hit& h) const {
-  h = closest(p, std::numeric_limits<double>::infinity());
+double SurfaceQuery::Impl::signed_distance(const Vec3& p, Hit& h, double bound) const {
+  h = closest(p, std::isfinite(bound) ? bound * (1.0 + 1e-12) + tol : bound);
+  if (h.face < 0) h = closest(p, std::numeric_limits<double>::infinity());
   const double d = std::sqrt(h.d2);
   if (d <= tol) return 0.0;
   bool reliable = true;
@@ -403,6 +404,14 @@ double SurfaceQuery::signed_distance(const Eigen::Vector3d& p, SurfacePoint& cp)
   cp.normal = impl_->normals[h.face];
   cp.distance = std::sqrt(h.d2);
   return sd;
+}
+
+double SurfaceQuery::signed_distance_hint(const Eigen::Vector3d& p, double distance_bound) const {
+  require_closed(*impl_, "signed_distance");
+  check_finite("p", p);
+  Impl::Hit h;
+  return impl_->signed_distance(p, h, std::isnan(distance_bound) ? std::numeric_limits<double>::infinity()
+                                                                  : std::max(distance_bound, 0.0));
 }
 
 static Vec3 checked_direction(const Vec3& origin, const Vec3& direction, double max_t) {

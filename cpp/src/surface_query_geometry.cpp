@@ -275,19 +275,40 @@ Points sample_surface(const Points& vertices, const Triangles& faces,
       owner.push_back(subset[e / 3]);
     }
   }
+  // Inside each face: a square lattice of pitch `spacing` in the face's plane, aligned with its
+  // longest edge, kept a quarter pitch away from the edges (which have their own samples). So a
+  // long thin face gets about area / spacing^2 samples, not (length / spacing)^2.
+  const double margin = 0.25 * spacing;
   for (int f : subset) {
-    const Vec3 a = vertices.row(faces(f, 0)).transpose(), b = vertices.row(faces(f, 1)).transpose(),
-               c = vertices.row(faces(f, 2)).transpose();
-    const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
-    const int n = static_cast<int>(std::ceil(longest / spacing));
-    if (n < 3) continue;  // no interior grid point
-    count_check(static_cast<std::size_t>(n) * n / 2);
-    for (int i = 1; i < n; ++i)
-      for (int j = 1; i + j < n; ++j) {
-        const int k = n - i - j;
-        out.push_back((a * i + b * j + c * k) / static_cast<double>(n));
+    Vec3 p[3];
+    for (int k = 0; k < 3; ++k) p[k] = vertices.row(faces(f, k)).transpose();
+    int longest = 0;
+    double best = -1.0;
+    for (int k = 0; k < 3; ++k) {
+      const double l = (p[(k + 1) % 3] - p[k]).norm();
+      if (l > best) best = l, longest = k;
+    }
+    const Vec3 a = p[longest], b = p[(longest + 1) % 3], c = p[(longest + 2) % 3];
+    const double L = (b - a).norm();
+    const Vec3 u = (b - a) / L;
+    Vec3 w = (c - a) - u * (c - a).dot(u);
+    const double H = w.norm();
+    if (!(H > 2.0 * margin)) continue;  // thinner than the margins: its edges cover it
+    w /= H;
+    const double cx = (c - a).dot(u);
+    const int rows = static_cast<int>(std::ceil((H - margin) / spacing));
+    count_check(static_cast<std::size_t>(rows) * static_cast<std::size_t>(std::ceil(L / spacing) + 1));
+    for (int j = 1; j < rows; ++j) {
+      const double h = j * spacing;
+      if (h > H - margin) break;
+      // Cross-section at height h: between the edges a-c and b-c.
+      const double x0 = cx * h / H, x1 = L + (cx - L) * h / H;
+      const double lo = x0 + margin * (1.0 + std::abs(cx) / H), hi = x1 - margin * (1.0 + std::abs(L - cx) / H);
+      for (int i = static_cast<int>(std::ceil(lo / spacing)); i * spacing <= hi; ++i) {
+        out.push_back(a + u * (i * spacing) + w * h);
         owner.push_back(f);
       }
+    }
   }
   Points result(static_cast<Eigen::Index>(out.size()), 3);
   for (std::size_t i = 0; i < out.size(); ++i) result.row(static_cast<Eigen::Index>(i)) = out[i].transpose();

@@ -83,9 +83,10 @@ struct Bvh {
 // ------------------------------------------------------------------ sampling
 
 /// Points covering the given faces so that every surface point lies within about `spacing`
-/// of a sample: the faces' vertices, points along each edge at <= spacing and a barycentric
-/// grid inside each face (n = ceil(longest edge / spacing) divisions). Each sample is listed
-/// once. `faces_subset` empty = all faces. `face_of` receives a face holding each sample.
+/// of a sample (at most 1.5 spacing): the faces' vertices, points along each edge at <= spacing
+/// and, inside each face, a square lattice of pitch `spacing` aligned with its longest edge and
+/// kept a quarter pitch from the edges (about area / spacing^2 points, however thin the face).
+/// Each vertex and edge sample is listed once. `faces_subset` empty = all faces. `face_of` receives a face holding each sample.
 /// Throws std::invalid_argument when more than `max_samples` would be made.
 Points sample_surface(const Points& vertices, const Triangles& faces,
                       const std::vector<int>& faces_subset, double spacing,

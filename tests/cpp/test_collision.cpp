@@ -269,13 +269,20 @@ TEST(Collision, BadInputThrows) {
 TEST(Collision, SampleCountsFollowTheSpacing) {
   th::TempDir dir;
   const Hand hand = th::probe_hand(dir);
-  CheckOptions opt;
-  opt.sample_spacing = 0.0021;
-  const GraspChecker checker(hand, cube(), Mask(), {}, opt);
-  ASSERT_EQ(checker.link_sample_counts().size(), 1u);
-  // Samples: 8 vertices, interior points of the 18 edges (12 cube edges + 6 face diagonals),
-  // interior grid points of the 12 triangles. Edges of 20 mm: ceil(20/2.1) = 10 parts, 9 inner
-  // points each; diagonals of 28.3 mm: 14 parts, 13 each; triangles (longest edge 28.3 mm ->
-  // n = 14 parts): (n-1)(n-2)/2 = 78 inner points each.
-  EXPECT_EQ(checker.link_sample_counts()[0], 8 + 12 * 9 + 6 * 13 + 12 * 78);
+  for (double spacing : {0.0021, 0.001}) {
+    CheckOptions opt;
+    opt.sample_spacing = spacing;
+    const GraspChecker checker(hand, cube(), Mask(), {}, opt);
+    ASSERT_EQ(checker.link_sample_counts().size(), 1u);
+    // The 20 mm cube has area 2400 mm^2: about area / spacing^2 lattice points inside the faces
+    // plus the 18 edges (12 sides, 6 diagonals; 325 mm in all) at the spacing and 8 vertices.
+    const double area = 6 * 0.02 * 0.02, edges = 12 * 0.02 + 6 * 0.02 * std::sqrt(2.0);
+    const int n = checker.link_sample_counts()[0];
+    EXPECT_GT(n, 0.5 * area / (spacing * spacing));
+    EXPECT_LT(n, area / (spacing * spacing) + edges / spacing + 8 + 1);
+    // The 0.1 m cube target likewise (area 0.06 m^2).
+    const int t = checker.target_sample_count();
+    EXPECT_GT(t, 0.5 * 0.06 / (spacing * spacing));
+    EXPECT_LT(t, 0.06 / (spacing * spacing) + (12 * 0.1 + 6 * 0.1 * std::sqrt(2.0) + 24 * 0.025) / spacing * 4 + 200);
+  }
 }

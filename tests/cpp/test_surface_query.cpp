@@ -493,3 +493,64 @@ TEST(Reachability, BadInputAndEmptyResultsThrow) {
   EXPECT_EQ(c.count(), 1);
   EXPECT_TRUE(c[3]);
 }
+
+// ---------------------------------------------------------------- surface sampling (internal)
+
+#include "../../cpp/src/surface_query_internal.hpp"
+
+TEST(SurfaceSampling, CoversEveryFaceWithinTheSpacingWithoutOversamplingThinFaces) {
+  // A cylinder-like fan of long thin triangles (100 mm x ~5 mm) and a sphere.
+  const int segments = 64;
+  const double r = 0.04, h = 0.1;
+  Points V(2 * segments, 3);
+  Triangles F(2 * segments, 3);
+  for (int k = 0; k < segments; ++k) {
+    const double a = 2 * M_PI * k / segments;
+    V.row(k) << r * std::cos(a), r * std::sin(a), 0.0;
+    V.row(segments + k) << r * std::cos(a), r * std::sin(a), h;
+    const int k1 = (k + 1) % segments;
+    F.row(2 * k) << k, k1, segments + k1;
+    F.row(2 * k + 1) << k, segments + k1, segments + k;
+  }
+  const Mesh tube = make_mesh(V, F, "tube");
+  const Mesh ball = tmesh::icosphere(0.05, 2);
+  for (const Mesh* m : {&tube, &ball}) {
+    for (double s : {0.002, 0.005}) {
+      std::vector<int> owner;
+      const Points S = pairgrasp::validation_detail::sample_surface(m->vertices, m->faces, {}, s, &owner);
+      ASSERT_EQ(static_cast<Eigen::Index>(owner.size()), S.rows());
+      // Count: about area / s^2 (a barycentric grid on these 100 mm faces would give 20x more).
+      double edges = 0;
+      for (int f = 0; f < m->faces.rows(); ++f)
+        for (int k = 0; k < 3; ++k)
+          edges += 0.5 * (m->vertices.row(m->faces(f, k)) - m->vertices.row(m->faces(f, (k + 1) % 3))).norm();
+      EXPECT_LT(S.rows(), m->area / (s * s) + edges / s + m->vertices.rows() + 1) << m->source << " " << s;
+      EXPECT_GT(S.rows(), 0.5 * m->area / (s * s)) << m->source << " " << s;
+      // Every sample lies on its face.
+      for (Eigen::Index i = 0; i < S.rows(); ++i) {
+        const int f = owner[i];
+        ASSERT_LT(tri_dist(S.row(i).transpose(), m->vertices.row(m->faces(f, 0)), m->vertices.row(m->faces(f, 1)),
+                           m->vertices.row(m->faces(f, 2))),
+                  1e-12);
+      }
+      // Coverage: random surface points (area-weighted faces, uniform barycentric) are within
+      // 1.5 s of a sample.
+      std::mt19937 rng(4);
+      std::uniform_real_distribution<double> u(0, 1);
+      std::vector<double> weights;
+      for (int f = 0; f < m->faces.rows(); ++f) weights.push_back(m->face_area(f));
+      std::discrete_distribution<int> pick(weights.begin(), weights.end());
+      double worst = 0;
+      for (int t = 0; t < 300; ++t) {
+        const int f = pick(rng);
+        double x = u(rng), y = u(rng);
+        if (x + y > 1) x = 1 - x, y = 1 - y;
+        const Vector3d a = m->vertices.row(m->faces(f, 0)), b = m->vertices.row(m->faces(f, 1)),
+                       c = m->vertices.row(m->faces(f, 2));
+        const Vector3d q = a + x * (b - a) + y * (c - a);
+        worst = std::max(worst, (S.rowwise() - q.transpose()).rowwise().norm().minCoeff());
+      }
+      EXPECT_LE(worst, 1.5 * s) << m->source << " " << s;
+    }
+  }
+}

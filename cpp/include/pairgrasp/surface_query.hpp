@@ -91,6 +91,11 @@ class SurfaceQuery {
   /// Signed distance and the closest point in one query (the closest point's `distance` is
   /// unsigned). Throws as signed_distance().
   double signed_distance(const Eigen::Vector3d& p, SurfacePoint& closest_point) const;
+  /// signed_distance() given an upper bound on the unsigned distance (metres), e.g. a nearby
+  /// point's distance plus the separation (distance is 1-Lipschitz): the search is limited to
+  /// it, which is much faster for points deep inside. A bound that turns out too small only
+  /// costs a second, unbounded search. Throws as signed_distance().
+  double signed_distance_hint(const Eigen::Vector3d& p, double distance_bound) const;
 
   /// First face hit by the ray origin + t·direction/|direction|, 0 <= t <= max_t (metres).
   /// Both sides of a face count. Throws std::invalid_argument for a zero or non-finite

@@ -1,0 +1,168 @@
+// Penetration pruning throughput: GraspChecker::check_many (all cores) against serial check()
+// calls on the same candidates, for the Barrett hand on the bundled targets (box, mug, flask).
+// Also reports the checker's build time, the share of candidates pruned, and the closing time.
+//
+// Candidates: the palm faces the target's centre from a random direction, its top 0..120 mm in
+// front of the target's extent along that direction, with a random roll and random DOFs within
+// the limits (flexions in the open third): a mix of kept and pruned poses. The model directory is PAIRGRASP_MODEL_DIR (environment, else compile time).
+#include <pairgrasp/collision.hpp>
+#include <pairgrasp/grasp.hpp>
+#include <pairgrasp/hand.hpp>
+#include <pairgrasp/mesh.hpp>
+
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+#ifndef PAIRGRASP_MODEL_DIR
+#define PAIRGRASP_MODEL_DIR "models"
+#endif
+
+using namespace pairgrasp;
+
+namespace {
+
+constexpr int kCandidates = 256;
+const char* kTargets[] = {"box", "mug", "flask"};
+
+std::string model_dir() {
+  const char* env = std::getenv("PAIRGRASP_MODEL_DIR");
+  return env ? env : PAIRGRASP_MODEL_DIR;
+}
+
+struct Scene {
+  std::unique_ptr<GraspChecker> checker;
+  std::vector<Pose> wrists;
+  std::vector<Eigen::VectorXd> dofs;
+  double build_seconds = 0.0;
+};
+
+Scene& scene(const std::string& name) {
+  static std::map<std::string, Scene> scenes;
+  auto it = scenes.find(name);
+  if (it != scenes.end()) return it->second;
+  Scene& s = scenes[name];
+  const Hand hand = Hand::load(model_dir() + "/barrett/barrett.json");
+  const Mesh target = load_mesh(model_dir() + "/targets/" + name + ".stl");
+  const auto t0 = std::chrono::steady_clock::now();
+  s.checker = std::make_unique<GraspChecker>(hand, target);
+  s.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> g;
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const Eigen::Vector3d centre = target.bounds.center();
+  const Eigen::VectorXd lo = hand.dof_lower(), hi = hand.dof_upper();
+  for (int k = 0; k < kCandidates; ++k) {
+    const Eigen::Vector3d dir = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+    // Wrist z (approach) points from the palm at -dir*dist towards the centre.
+    Pose w = Pose::Identity();
+    w.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), -dir).toRotationMatrix() *
+                 Eigen::AngleAxisd(6.283185307179586 * u(rng), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    // The palm top (0.075 above the wrist) 0..120 mm in front of the target's extent along dir.
+    double support = 0.0;
+    for (Eigen::Index v = 0; v < target.vertices.rows(); ++v)
+      support = std::max(support, (Eigen::Vector3d(target.vertices.row(v).transpose()) - centre).dot(dir));
+    w.translation() = centre + dir * (support + 0.12 * u(rng) + 0.075);
+    // Spread anywhere, flexions in the open third of their range (as aligned, before closing).
+    Eigen::VectorXd q(lo.size());
+    for (Eigen::Index i = 0; i < q.size(); ++i) q[i] = lo[i] + (hi[i] - lo[i]) * u(rng) * (i == 0 ? 1.0 : 0.33);
+    s.wrists.push_back(w);
+    s.dofs.push_back(q);
+  }
+  return s;
+}
+
+void BM_CheckSerial(benchmark::State& state, const char* name) {
+  Scene& s = scene(name);
+  for (auto _ : state)
+    for (int k = 0; k < kCandidates; ++k) benchmark::DoNotOptimize(s.checker->check(s.wrists[k], s.dofs[k]));
+  state.SetItemsProcessed(state.iterations() * kCandidates);
+}
+
+void BM_CheckMany(benchmark::State& state, const char* name) {
+  Scene& s = scene(name);
+  for (auto _ : state) benchmark::DoNotOptimize(s.checker->check_many(s.wrists, s.dofs, 0));
+  state.SetItemsProcessed(state.iterations() * kCandidates);
+}
+
+void BM_CloseKept(benchmark::State& state, const char* name) {
+  Scene& s = scene(name);
+  std::vector<int> kept;
+  for (int k = 0; k < kCandidates; ++k)
+    if (!s.checker->check(s.wrists[k], s.dofs[k]).pruned) kept.push_back(k);
+  if (kept.empty()) {
+    state.SkipWithError("no kept candidate");
+    return;
+  }
+  std::size_t i = 0;
+  for (auto _ : state) {
+    const int k = kept[i++ % kept.size()];
+    benchmark::DoNotOptimize(close_fingers(*s.checker, s.wrists[k], s.dofs[k]));
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+
+void register_all() {
+  for (const char* t : kTargets) {
+    benchmark::RegisterBenchmark((std::string("BM_CheckSerial/") + t).c_str(), BM_CheckSerial, t)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+    benchmark::RegisterBenchmark((std::string("BM_CheckMany/") + t).c_str(), BM_CheckMany, t)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+    benchmark::RegisterBenchmark((std::string("BM_CloseKept/") + t).c_str(), BM_CloseKept, t)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+  }
+}
+
+// Keeps the real time per iteration of every benchmark for the ratios printed at the end.
+class Recorder : public benchmark::ConsoleReporter {
+ public:
+  std::map<std::string, double> seconds;
+  void ReportRuns(const std::vector<Run>& runs) override {
+    for (const auto& r : runs)
+      if (r.run_type == Run::RT_Iteration && r.iterations > 0)
+        seconds[r.run_name.function_name] = r.real_accumulated_time / static_cast<double>(r.iterations);
+    ConsoleReporter::ReportRuns(runs);
+  }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  register_all();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  Recorder rec;
+  benchmark::RunSpecifiedBenchmarks(&rec);
+  std::printf("\nBarrett hand, %d candidates per target, %u hardware threads\n", kCandidates,
+              std::thread::hardware_concurrency());
+  std::printf("%-6s %8s %9s %11s %14s %14s %8s %12s\n", "target", "faces", "build s", "pruned %",
+              "serial cand/s", "many cand/s", "speedup", "close ms");
+  for (const char* t : kTargets) {
+    const auto serial = rec.seconds.find(std::string("BM_CheckSerial/") + t);
+    const auto many = rec.seconds.find(std::string("BM_CheckMany/") + t);
+    if (serial == rec.seconds.end() || many == rec.seconds.end()) continue;
+    Scene& s = scene(t);
+    int pruned = 0;
+    for (const auto& r : s.checker->check_many(s.wrists, s.dofs, 0)) pruned += r.pruned;
+    const auto close = rec.seconds.find(std::string("BM_CloseKept/") + t);
+    std::printf("%-6s %8ld %9.3f %11.1f %14.0f %14.0f %8.2f %12.2f\n", t,
+                static_cast<long>(s.checker->target().faces.rows()), s.build_seconds, 100.0 * pruned / kCandidates,
+                kCandidates / serial->second, kCandidates / many->second, serial->second / many->second,
+                close == rec.seconds.end() ? 0.0 : 1e3 * close->second);
+  }
+  benchmark::Shutdown();
+  return 0;
+}
