@@ -178,6 +178,19 @@ void check_option(const char* name, double value, bool positive) {
                                 (positive ? "> 0" : ">= 0") + " (m), got " + std::to_string(value));
 }
 
+// Runs a sampling step, naming the option at fault in the error ("sample_spacing: ... would
+// make more than N surface samples").
+template <class F>
+auto renamed(const char* option, F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const std::invalid_argument& e) {
+    std::string what = e.what();
+    if (what.rfind("spacing: ", 0) == 0) what = what.substr(9);
+    throw std::invalid_argument(std::string(option) + ": " + what);
+  }
+}
+
 std::string mm(double metres) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.2f mm", metres * 1e3);
@@ -223,10 +236,12 @@ GraspChecker::Impl::Impl(const Hand& hand_in, const Mesh& target_in, const Mask&
     L.fcl = vd::make_fcl_model(m.vertices, m.faces);
     L.bounds = vd::faces_bounds(m.vertices, m.faces);
     L.query = std::make_unique<SurfaceQuery>(m);
-    L.samples = vd::make_samples(m, sample_spacing);
+    L.samples = renamed("sample_spacing", [&] { return vd::make_samples(m, sample_spacing); });
     if (hl[l].active()) {
       L.fcl_active = vd::make_fcl_model(m.vertices, m.faces, hl[l].active_faces);
-      L.contact_samples = vd::sample_surface(m.vertices, m.faces, hl[l].active_faces, options.contact_spacing);
+      L.contact_samples = renamed("contact_spacing", [&] {
+        return vd::sample_surface(m.vertices, m.faces, hl[l].active_faces, options.contact_spacing);
+      });
     }
   }
   // Scene: target first, then obstacles.
@@ -238,7 +253,7 @@ GraspChecker::Impl::Impl(const Hand& hand_in, const Mesh& target_in, const Mask&
     S.fcl = vd::make_fcl_model(target.vertices, target.faces);
     S.bounds = vd::faces_bounds(target.vertices, target.faces);
     S.query = std::make_unique<SurfaceQuery>(target);
-    S.samples = vd::make_samples(target, sample_spacing);
+    S.samples = renamed("sample_spacing", [&] { return vd::make_samples(target, sample_spacing); });
   }
   for (std::size_t i = 0; i < obstacles.size(); ++i) {
     vd::SceneModel& S = scene[1 + i];

@@ -286,3 +286,17 @@ TEST(Collision, SampleCountsFollowTheSpacing) {
     EXPECT_LT(t, 0.06 / (spacing * spacing) + (12 * 0.1 + 6 * 0.1 * std::sqrt(2.0) + 24 * 0.025) / spacing * 4 + 200);
   }
 }
+
+TEST(Collision, SampleBudgetErrorNamesTheOption) {
+  th::TempDir dir;
+  const Hand hand = th::probe_hand(dir);
+  CheckOptions opt;
+  opt.sample_spacing = 1e-6;  // (0.1 m cube: 6e10 samples)
+  try {
+    GraspChecker(hand, cube(), Mask(), {}, opt);
+    FAIL() << "expected invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("sample_spacing: ", 0), 0u) << e.what();
+    EXPECT_TRUE(contains(e.what(), "surface samples")) << e.what();
+  }
+}
