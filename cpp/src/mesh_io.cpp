@@ -12,12 +12,9 @@
 
 #include <algorithm>
 #include <cctype>
-#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
-#include <locale>
-#include <regex>
 #include <sstream>
 #include <string>
 #include <system_error>
@@ -35,70 +32,28 @@ std::string lower(std::string s) {
   return s;
 }
 
-// Position of the first tag `<name` (followed by a space, '>' or '/') in text[from, to),
-// skipping comments; npos when there is none.
-std::size_t find_tag(const std::string& text, const std::string& name, std::size_t from, std::size_t to) {
-  const std::string open = "<" + name;
-  std::size_t i = from;
-  while (i < to) {
-    i = text.find('<', i);
-    if (i == std::string::npos || i >= to) return std::string::npos;
-    if (text.compare(i, 4, "<!--") == 0) {
-      const std::size_t end = text.find("-->", i + 4);
-      if (end == std::string::npos) return std::string::npos;
-      i = end + 3;
-      continue;
-    }
-    if (text.compare(i, open.size(), open) == 0 && i + open.size() < text.size()) {
-      const char next = text[i + open.size()];
-      if (std::isspace(static_cast<unsigned char>(next)) || next == '>' || next == '/') return i;
-    }
-    ++i;
-  }
-  return std::string::npos;
-}
-
-// The length unit of a COLLADA file in metres: the `meter` attribute of the top-level
-// <asset><unit>, 1 when absent (the COLLADA default). Reads only as far as the end of <asset>.
-double collada_unit(const std::string& path) {
+std::string read_all(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw FileError(path, "cannot be opened for reading");
-  std::string text;
-  std::size_t asset_end = std::string::npos;
-  char buffer[65536];
-  while (asset_end == std::string::npos && in) {
-    in.read(buffer, sizeof buffer);
-    const std::size_t before = text.size();
-    text.append(buffer, static_cast<std::size_t>(in.gcount()));
-    asset_end = text.find("</asset", before >= 8 ? before - 8 : 0);
-  }
-  const std::size_t asset = find_tag(text, "asset", 0, text.size());
-  if (asset == std::string::npos) return 1.0;
-  if (asset_end == std::string::npos || asset_end < asset) asset_end = text.size();
-  const std::size_t unit = find_tag(text, "unit", asset, asset_end);
-  if (unit == std::string::npos) return 1.0;
-  const std::size_t unit_end = text.find('>', unit);
-  if (unit_end == std::string::npos) throw FileError(path, "<asset><unit>: unterminated tag");
-  const std::string tag = text.substr(unit, unit_end - unit);
-  static const std::regex meter_attr(R"re(\smeter\s*=\s*(?:"([^"]*)"|'([^']*)'))re");
-  std::smatch match;
-  if (!std::regex_search(tag, match, meter_attr)) return 1.0;  // meter defaults to 1.0
-  const std::string value = match[1].matched ? match[1].str() : match[2].str();
-  std::istringstream parse(value);
-  parse.imbue(std::locale::classic());
-  double meter = 0.0;
-  parse >> meter;
-  const bool complete = !parse.fail() && (parse >> std::ws).eof();
-  if (!complete || !std::isfinite(meter) || meter <= 0.0)
-    throw FileError(path, "<asset><unit meter=\"" + value + "\">: expected a positive number of metres");
-  return meter;
+  std::ostringstream s;
+  s << in.rdbuf();
+  if (in.bad()) throw FileError(path, "read error");
+  return s.str();
 }
 
-bool is_collada(const aiScene* scene, const std::string& path) {
+std::string read_head(const std::string& path, std::size_t n) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw FileError(path, "cannot be opened for reading");
+  std::string head(n, '\0');
+  in.read(head.data(), static_cast<std::streamsize>(n));
+  head.resize(static_cast<std::size_t>(in.gcount()));
+  return head;
+}
+
+bool is_collada(const aiScene* scene) {
   aiString format;
-  if (scene->mMetaData && scene->mMetaData->Get(AI_METADATA_SOURCE_FORMAT, format))
-    return lower(format.C_Str()).find("collada") != std::string::npos;
-  return lower(fs::path(path).extension().string()) == ".dae";
+  return scene->mMetaData && scene->mMetaData->Get(AI_METADATA_SOURCE_FORMAT, format) &&
+         lower(format.C_Str()).find("collada") != std::string::npos;
 }
 
 Eigen::Matrix4d to_eigen(const aiMatrix4x4& m) {
@@ -122,30 +77,70 @@ Mesh load_mesh(const std::string& path, const MeshLoadOptions& options) {
   const fs::file_status status = fs::status(path, ec);
   if (!fs::exists(status)) throw FileError(path, "file not found");
   if (fs::is_directory(status)) throw FileError(path, "is a directory, not a mesh file");
-  {
-    std::ifstream probe(path, std::ios::binary);
-    if (!probe) throw FileError(path, "cannot be opened for reading");
-    if (probe.peek() == std::ifstream::traits_type::eof()) throw FileError(path, "empty file");
+  const std::string head = read_head(path, 4096);
+  if (head.empty()) throw FileError(path, "empty file");
+  const detail::MeshFail fail = [&path](const std::string&, const std::string& message) {
+    throw FileError(path, message);
+  };
+
+  // PLY: our own reader (see mesh_ply.cpp for why not assimp's).
+  if (detail::has_ply_magic(head)) {
+    Points vertices;
+    Triangles faces;
+    detail::read_ply(path, read_all(path), vertices, faces);
+    return detail::build_mesh(std::move(vertices), std::move(faces), path, options, fail);
   }
+
+  // COLLADA: read the unit, and check what assimp cannot be trusted with, before assimp parses.
+  bool collada = lower(fs::path(path).extension().string()) == ".dae" || detail::looks_like_collada(head);
+  double unit = 1.0;
+  if (collada) unit = detail::check_collada(path, read_all(path));
 
   Assimp::Importer importer;
   // Keep COLLADA's authored axes (assimp otherwise turns Z-up files to Y-up).
   importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_IGNORE_UP_DIRECTION, true);
-  const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate);
-  if (!scene) {
+  const aiScene* scene = importer.ReadFile(path, 0);
+  auto assimp_error = [&] {
     // assimp sometimes quotes the rest of the file: keep the message to its first line and 200 chars.
     std::string why = importer.GetErrorString();
     why = why.substr(0, why.find_first_of("\r\n"));
     if (why.size() > 200) why = why.substr(0, 200) + "...";
-    throw FileError(path, "cannot be read as a mesh: " + why);
-  }
+    return FileError(path, "cannot be read as a mesh: " + why);
+  };
+  if (!scene) throw assimp_error();
   if (!scene->mRootNode) throw FileError(path, "cannot be read as a mesh: the scene has no root node");
+  // Triangulate polygons. assimp's step asserts (aborting the process) when a mesh's primitive
+  // types disagree with its faces, as some importers leave them for malformed files: recompute
+  // them from the faces first. Face order and vertices are left as they are.
+  for (unsigned i = 0; i < scene->mNumMeshes; ++i) {
+    aiMesh* mesh = scene->mMeshes[i];
+    unsigned types = 0;
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+      const unsigned n = mesh->mFaces[f].mNumIndices;
+      if (n == 0) continue;
+      types |= static_cast<unsigned>(n == 1   ? aiPrimitiveType_POINT
+                                     : n == 2 ? aiPrimitiveType_LINE
+                                     : n == 3 ? aiPrimitiveType_TRIANGLE
+                                              : aiPrimitiveType_POLYGON);
+    }
+    // No types at all makes the step look at every face again, empty ones included.
+    mesh->mPrimitiveTypes = types ? types : static_cast<unsigned>(aiPrimitiveType_POINT);
+  }
+  scene = importer.ApplyPostProcessing(aiProcess_Triangulate);
+  if (!scene) throw assimp_error();
 
   // COLLADA: assimp's root node is the <visual_scene>, which has no transform of its own in the
   // format; the loader puts there its unit scale (and, without the property above, its up-axis
   // rotation), which assimp versions do differently. Drop it and apply the file's unit once.
-  const bool collada = is_collada(scene, path);
-  const double unit = collada ? collada_unit(path) : 1.0;
+  // (A COLLADA file found only by assimp, e.g. zipped .zae, keeps assimp's root transform: its
+  // text is not at hand; the up-axis property still applies.)
+  if (!collada && is_collada(scene)) {
+    const std::string text = read_all(path);
+    if (detail::looks_like_collada(text)) {
+      collada = true;
+      unit = detail::check_collada(path, text);
+    }
+  }
 
   std::vector<Instance> instances;
   std::vector<std::pair<const aiNode*, Eigen::Matrix4d>> stack;
@@ -200,9 +195,6 @@ Mesh load_mesh(const std::string& path, const MeshLoadOptions& options) {
     v0 += mesh->mNumVertices;
   }
 
-  const detail::MeshFail fail = [&path](const std::string&, const std::string& message) {
-    throw FileError(path, message);
-  };
   return detail::build_mesh(std::move(vertices), std::move(faces), path, options, fail, unit);
 }
 

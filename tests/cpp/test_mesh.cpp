@@ -193,6 +193,83 @@ void write_dae(const fs::path& path, const TriMesh& m, const std::string& up_axi
       << "  <scene><instance_visual_scene url=\"#scene\"/></scene>\n</COLLADA>\n";
 }
 
+// An L-shaped prism (cross-section (0,0) (2,0) (2,1) (1,1) (1,3) (0,3), times `s`, height h),
+// its two caps as concave hexagons starting at the corner next to the reflex one, so that a fan
+// from the first corner would leave the polygon. Area of the L: 4 s^2, perimeter 10 s.
+struct PolyMesh {
+  Points v;
+  std::vector<std::vector<int>> polys;
+};
+
+PolyMesh make_l_prism(double s, double h) {
+  const double xy[6][2] = {{2, 1}, {1, 1}, {1, 3}, {0, 3}, {0, 0}, {2, 0}};  // counter-clockwise
+  PolyMesh m;
+  m.v.resize(12, 3);
+  for (int i = 0; i < 6; ++i) {
+    m.v.row(i) << s * xy[i][0], s * xy[i][1], 0.0;
+    m.v.row(6 + i) << s * xy[i][0], s * xy[i][1], h;
+  }
+  m.polys.push_back({5, 4, 3, 2, 1, 0});    // bottom, seen from below
+  m.polys.push_back({6, 7, 8, 9, 10, 11});  // top
+  for (int i = 0; i < 6; ++i) m.polys.push_back({i, (i + 1) % 6, 6 + (i + 1) % 6, 6 + i});
+  return m;
+}
+
+// PLY with polygons, extra vertex and face properties and an extra element, in any format.
+void write_ply_polys(const fs::path& path, const PolyMesh& m, const std::string& format) {
+  std::ofstream out(path, std::ios::binary);
+  out << "ply\nformat " << format << " 1.0\ncomment written by a test\nelement vertex " << m.v.rows()
+      << "\nproperty double x\nproperty float y\nproperty double z\nproperty uchar red\nelement face "
+      << m.polys.size() << "\nproperty uchar flags\nproperty list uchar int vertex_indices\n"
+      << "element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n";
+  const bool ascii = format == "ascii";
+  const bool big = format == "binary_big_endian";
+  auto put = [&](const auto value) {
+    if (ascii) {
+      out << num(static_cast<double>(value)) << " ";
+      return;
+    }
+    char b[sizeof value];
+    std::memcpy(b, &value, sizeof value);
+    if (big) std::reverse(b, b + sizeof value);
+    out.write(b, sizeof value);
+  };
+  for (Eigen::Index i = 0; i < m.v.rows(); ++i) {
+    put(m.v(i, 0));
+    put(static_cast<float>(m.v(i, 1)));
+    put(m.v(i, 2));
+    put(static_cast<std::uint8_t>(200));
+    if (ascii) out << "\n";
+  }
+  for (const auto& p : m.polys) {
+    put(static_cast<std::uint8_t>(1));
+    put(static_cast<std::uint8_t>(p.size()));
+    for (int i : p) put(static_cast<std::int32_t>(i));
+    if (ascii) out << "\n";
+  }
+  put(std::int32_t{0});
+  put(std::int32_t{1});
+  if (ascii) out << "\n";
+}
+
+void write_obj_polys(const fs::path& path, const PolyMesh& m) {
+  std::ofstream out(path);
+  for (Eigen::Index i = 0; i < m.v.rows(); ++i)
+    out << "v " << num(m.v(i, 0)) << " " << num(m.v(i, 1)) << " " << num(m.v(i, 2)) << "\n";
+  for (const auto& p : m.polys) {
+    out << "f";
+    for (int i : p) out << " " << i + 1;
+    out << "\n";
+  }
+}
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
 void write_text(const fs::path& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary);
   out << text;
@@ -433,6 +510,37 @@ TEST_F(MeshFiles, ColladaNodeTransformsAreAppliedAndInstancesMerged) {
   const Eigen::Vector4d c(0.5, 1.0, 1.5, 1.0);
   const Eigen::Vector3d com = 0.1 * 0.5 * ((n0 * c).head<3>() + (n1 * c).head<3>());
   EXPECT_LT((m.center_of_mass - com).norm(), 1e-8);
+}
+
+TEST_F(MeshFiles, ConcavePolygonsFromPlyAndObjAreTriangulatedInside) {
+  // Independent facts: area 2 * 4 s^2 + 10 s * h, volume 4 s^2 h, centroid of the L at
+  // (0.75 s, 1.25 s). A triangulation leaving the polygon would overlap and add area, or turn
+  // a cap triangle over.
+  const double s = 0.01, h = 0.005;
+  const PolyMesh prism = make_l_prism(s, h);
+  std::vector<std::string> files;
+  for (const std::string format : {"ascii", "binary_little_endian", "binary_big_endian"}) {
+    files.push_back(file("l_" + format + ".ply"));
+    write_ply_polys(files.back(), prism, format);
+  }
+  files.push_back(file("l.obj"));
+  write_obj_polys(files.back(), prism);
+  for (const std::string& path : files) {
+    SCOPED_TRACE(path);
+    const Mesh m = load_mesh(path);
+    EXPECT_EQ(m.vertices.rows(), 12);
+    EXPECT_EQ(m.faces.rows(), 2 * 4 + 6 * 2);  // a hexagon gives 4 triangles, a quad 2
+    EXPECT_TRUE(m.closed);
+    EXPECT_NEAR(m.area, 8 * s * s + 10 * s * h, 1e-6 * m.area);
+    EXPECT_NEAR(m.volume, 4 * s * s * h, 1e-6 * m.volume);
+    EXPECT_LT((m.center_of_mass - Eigen::Vector3d(0.75 * s, 1.25 * s, h / 2)).norm(), 1e-7 * s);
+    EXPECT_EQ(m.cleanup.flipped_faces, 0);
+    for (int f = 0; f < m.faces.rows(); ++f) {
+      const Eigen::Vector3d n = m.face_normal(f);
+      const double z = m.vertices.row(m.faces(f, 0)).z();
+      if (std::abs(n.z()) > 0.5) EXPECT_NEAR(n.z(), z > h / 2 ? 1.0 : -1.0, 1e-9) << "face " << f;
+    }
+  }
 }
 
 // ------------------------------------------------------------------------------ orientation
@@ -773,4 +881,114 @@ TEST_F(MeshFiles, BadFilesThrowFileErrorNamingTheFile) {
   MeshLoadOptions o;
   o.scale = -2.0;
   expect_invalid_argument([&] { load_mesh(missing, o); }, "scale");
+}
+
+TEST_F(MeshFiles, MalformedPlyIsReportedNotHungOrAborted) {
+  // assimp 5.2 hangs on the first two and aborts the process on the third.
+  write_ply_polys(file("full.ply"), make_l_prism(1.0, 1.0), "ascii");
+  const std::string full = read_text(file("full.ply"));
+  const std::size_t body = full.find("end_header\n") + 11;
+  write_text(file("cut_header.ply"), full.substr(0, full.find("end_header")));
+  expect_file_error([&] { load_mesh(file("cut_header.ply")); }, file("cut_header.ply"), "end_header");
+  write_text(file("bad_header.ply"), full.substr(0, 120) + "x" + full.substr(120));
+  expect_file_error([&] { load_mesh(file("bad_header.ply")); }, file("bad_header.ply"), "header line");
+  write_text(file("cut_body.ply"), full.substr(0, body + (full.size() - body) / 2));
+  expect_file_error([&] { load_mesh(file("cut_body.ply")); }, file("cut_body.ply"), "ends early");
+  write_ply_polys(file("full_bin.ply"), make_l_prism(1.0, 1.0), "binary_little_endian");
+  const std::string bin = read_text(file("full_bin.ply"));
+  write_text(file("cut_bin.ply"), bin.substr(0, bin.size() - 20));
+  expect_file_error([&] { load_mesh(file("cut_bin.ply")); }, file("cut_bin.ply"), "ends early");
+
+  std::string huge = full;
+  huge.replace(huge.find("element face 8"), 14, "element face 9999999999999");
+  write_text(file("huge.ply"), huge);
+  expect_file_error([&] { load_mesh(file("huge.ply")); }, file("huge.ply"), "more than the file holds");
+  std::string two = full;
+  two.replace(two.find("\n1 6 5 4 3 2 1 0"), 16, "\n1 2 5 4");
+  write_text(file("two.ply"), two);
+  expect_file_error([&] { load_mesh(file("two.ply")); }, file("two.ply"), "needs 3");
+  std::string word = full;
+  word.replace(word.find("\n1 6 5 4 3 2 1 0") + 3, 1, "six");
+  write_text(file("word.ply"), word);
+  expect_file_error([&] { load_mesh(file("word.ply")); }, file("word.ply"), "'six' is not an integer");
+  std::string range = full;
+  range.replace(range.find("\n1 6 5 4 3 2 1 0"), 16, "\n1 6 5 4 3 2 1 12");
+  write_text(file("range.ply"), range);
+  expect_file_error([&] { load_mesh(file("range.ply")); }, file("range.ply"), "out of range");
+}
+
+TEST_F(MeshFiles, MalformedColladaIsReportedNotHungOrCrashed) {
+  // Each of these hangs or crashes assimp 5.2 when it is handed the file unchecked.
+  write_dae(file("ok.dae"), make_box(Eigen::Vector3d::Constant(1.0)), "Z_UP", "meter=\"1\"");
+  const std::string ok = read_text(file("ok.dae"));
+  std::string letter = ok;
+  const std::size_t p = letter.find("<p>");
+  letter.replace(letter.find(' ', p + 6), 1, " x");
+  write_text(file("letter.dae"), letter);
+  expect_file_error([&] { load_mesh(file("letter.dae")); }, file("letter.dae"), "<p> index list");
+  std::string no_count = ok;
+  no_count.replace(no_count.find(" count=\"24\""), 11, "");
+  write_text(file("no_count.dae"), no_count);
+  expect_file_error([&] { load_mesh(file("no_count.dae")); }, file("no_count.dae"), "no count attribute");
+  std::string cycle = ok;
+  cycle.replace(cycle.find("<instance_geometry url=\"#g\"/>"), 0, "<node id=\"inner\"><instance_node url=\"#n0\"/></node>");
+  write_text(file("cycle.dae"), cycle);
+  expect_file_error([&] { load_mesh(file("cycle.dae")); }, file("cycle.dae"), "cycle");
+  // Commented-out garbage is not looked at.
+  std::string commented = ok;
+  commented.replace(commented.find("<library_geometries>"), 0, "<!-- <p>not an index</p> <float_array/> -->");
+  write_text(file("commented.dae"), commented);
+  EXPECT_EQ(load_mesh(file("commented.dae")).faces.rows(), 12);
+  // A binary STL cut short.
+  write_binary_stl(file("cut.stl"), make_box(Eigen::Vector3d::Constant(1.0)));
+  const std::string stl = read_text(file("cut.stl"));
+  write_text(file("cut.stl"), stl.substr(0, stl.size() - 30));
+  expect_file_error([&] { load_mesh(file("cut.stl")); }, file("cut.stl"));
+}
+
+TEST_F(MeshFiles, MutatedFilesLoadOrThrowFileError) {
+  // Bounded fuzzing: random byte changes, insertions, deletions and truncations of a valid file
+  // of each format must give a valid mesh or a FileError, never a crash, hang or other error.
+  const TriMesh box = make_box(Eigen::Vector3d(0.1, 0.2, 0.3), Eigen::Vector3d(0.01, 0.02, 0.03));
+  write_binary_stl(file("seed.stl"), box);
+  write_ascii_stl(file("seed_ascii.stl"), box);
+  write_obj_box_quads(file("seed.obj"), box);
+  write_ply_polys(file("seed.ply"), make_l_prism(0.01, 0.02), "ascii");
+  write_ply_polys(file("seed_bin.ply"), make_l_prism(0.01, 0.02), "binary_big_endian");
+  write_dae(file("seed.dae"), box, "Z_UP", "meter=\"0.01\"");
+  std::mt19937 rng(2024);
+  const char* tokens[] = {"-1", "nan", "1e400", "4294967296", "0", "<", ">", "\"", " ", "\n", "f", "v", "<p>", "count=\"7\""};
+  int loaded = 0, rejected = 0;
+  for (const std::string name : {"seed.stl", "seed_ascii.stl", "seed.obj", "seed.ply", "seed_bin.ply", "seed.dae"}) {
+    const std::string original = read_text(file(name));
+    const std::string ext = fs::path(name).extension().string();
+    for (int round = 0; round < 60; ++round) {
+      std::string s = original;
+      switch (rng() % 4) {
+        case 0:
+          for (unsigned k = 0, n = 1 + rng() % 6; k < n; ++k) s[rng() % s.size()] = static_cast<char>(rng() & 0xFF);
+          break;
+        case 1: s.resize(rng() % s.size()); break;
+        case 2: s.insert(rng() % s.size(), tokens[rng() % (sizeof tokens / sizeof *tokens)]); break;
+        default: s.erase(rng() % s.size(), 1 + rng() % 20); break;
+      }
+      const std::string path = file("mutant" + ext);
+      write_text(path, s);
+      try {
+        const Mesh m = load_mesh(path);
+        ++loaded;
+        ASSERT_GT(m.faces.rows(), 0);
+        ASSERT_TRUE(m.vertices.allFinite());
+        ASSERT_GE(m.faces.minCoeff(), 0);
+        ASSERT_LT(m.faces.maxCoeff(), m.vertices.rows());
+      } catch (const FileError& e) {
+        ++rejected;
+        ASSERT_NE(std::string(e.what()).find(path), std::string::npos);
+      } catch (const std::exception& e) {
+        FAIL() << name << " round " << round << ": " << e.what();
+      }
+    }
+  }
+  EXPECT_GT(loaded, 0);
+  EXPECT_GT(rejected, 0);
 }

@@ -72,8 +72,11 @@ struct MeshLoadOptions {
 
 /// Loads a mesh file and returns it validated and cleaned.
 ///
-/// Formats: whatever assimp reads (STL ASCII/binary, OBJ, PLY, COLLADA, OFF, ...); points and
-/// lines are ignored, polygons are triangulated. All meshes of the file's scene are merged with
+/// Formats: STL (ASCII/binary), OBJ, COLLADA, OFF and the rest of what assimp reads; PLY
+/// (ASCII, binary little- and big-endian) by pairgrasp's own reader, which checks every count
+/// against the file. COLLADA files are checked for the malformations that make assimp hang or
+/// crash before assimp parses them. Points and lines are ignored, polygons are triangulated
+/// (ear clipping in their plane, keeping their winding). All meshes of the file's scene are merged with
 /// their node transforms applied (a mirroring transform reverses its faces' winding so that
 /// they stay outward). COLLADA files keep their authored axes (no Z-up to Y-up rotation, as
 /// RViz does) and their top-level `<asset><unit meter="...">` is applied exactly once, then
