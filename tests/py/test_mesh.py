@@ -7,6 +7,7 @@ import itertools
 import math
 import os
 import pathlib
+import struct
 
 import numpy as np
 import pytest
@@ -198,6 +199,42 @@ def test_scale_loads_millimetres_as_metres(tmp_path):
     for bad in (0.0, -1.0, float("nan"), float("inf")):
         with pytest.raises(ValueError, match="scale"):
             pg.load_mesh(tmp_path / "mm.stl", scale=bad)
+
+
+def write_ply_binary(path, v, polys, endian=">"):
+    """Binary PLY (big-endian by default) with polygons and an extra per-vertex property."""
+    fmt = "binary_big_endian" if endian == ">" else "binary_little_endian"
+    head = ("ply\nformat %s 1.0\nelement vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
+            "property uchar quality\nelement face %d\nproperty list uchar uint vertex_indices\nend_header\n"
+            % (fmt, len(v), len(polys)))
+    body = b"".join(struct.pack(endian + "fffB", *p, 9) for p in v)
+    body += b"".join(struct.pack(endian + "B%dI" % len(q), len(q), *q) for q in polys)
+    pathlib.Path(path).write_bytes(head.encode() + body)
+
+
+def test_binary_ply_with_quads(tmp_path):
+    size, lo = np.array([0.03, 0.02, 0.01]), np.array([0.1, 0.1, 0.1])
+    v, f = box(size, lo)
+    quads = [[f[i][0], f[i][1], f[i][2], f[i + 1][2]] for i in range(0, 12, 2)]  # (q0 q1 q2) (q0 q2 q3)
+    for endian in "<>":
+        write_ply_binary(tmp_path / "q.ply", v, quads, endian)
+        check_box(pg.load_mesh(tmp_path / "q.ply"), size, lo)
+
+
+def test_malformed_ply_and_collada_raise_file_error(tmp_path):
+    v, f = box((1, 1, 1))
+    write_ply(tmp_path / "ok.ply", v, f)
+    text = (tmp_path / "ok.ply").read_text()
+    (tmp_path / "cut_header.ply").write_text(text[:text.index("end_header")])
+    _expect_file_error(tmp_path / "cut_header.ply", "end_header")
+    (tmp_path / "cut_body.ply").write_text(text[:len(text) - 40])
+    _expect_file_error(tmp_path / "cut_body.ply", "ends early")
+    write_dae(tmp_path / "ok.dae", v, f)
+    dae = (tmp_path / "ok.dae").read_text()
+    (tmp_path / "letter.dae").write_text(dae.replace("<p>0 ", "<p>0 x ", 1))
+    _expect_file_error(tmp_path / "letter.dae", "index list")
+    (tmp_path / "nocount.dae").write_text(dae.replace(' count="24"', "", 1))
+    _expect_file_error(tmp_path / "nocount.dae", "count")
 
 
 # ----------------------------------------------------------------------------- orientation
