@@ -43,7 +43,9 @@ struct Mesh {
   /// Every edge is shared by exactly two faces that traverse it in opposite directions.
   bool closed = false;
   double area = 0.0;              ///< total surface area, m^2
-  double volume = 0.0;            ///< enclosed volume, m^3 (0 when not closed)
+  /// Enclosed volume, m^3: 0 when not closed; signed by the winding, so negative only for an
+  /// inside-out closed mesh built with MeshLoadOptions::orient false.
+  double volume = 0.0;
   /// Centre of mass of the solid (uniform density) when closed, else the area-weighted
   /// centroid of the surface; metres.
   Eigen::Vector3d center_of_mass = Eigen::Vector3d::Zero();
