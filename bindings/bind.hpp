@@ -5,8 +5,38 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <string>
+#include <vector>
+
 namespace pairgrasp::py {
 namespace pyb = pybind11;
+
+/// A read-only NumPy view of an Eigen block held by `owner` (the view keeps `owner` alive).
+/// Column vectors give 1-D arrays; an empty block gives a fresh empty array of the right shape.
+template <class M>
+pyb::array readonly_view(const M& m, pyb::handle owner) {
+  using S = typename M::Scalar;
+  const auto s = static_cast<pyb::ssize_t>(sizeof(S));
+  if (m.size() == 0) {
+    if (M::ColsAtCompileTime == 1) return pyb::array_t<S>(std::vector<pyb::ssize_t>{0});
+    return pyb::array_t<S>(std::vector<pyb::ssize_t>{0, static_cast<pyb::ssize_t>(m.cols())});
+  }
+  pyb::array a;
+  if (M::ColsAtCompileTime == 1)
+    a = pyb::array_t<S>({static_cast<pyb::ssize_t>(m.rows())}, {s * m.innerStride()}, m.data(), owner);
+  else
+    a = pyb::array_t<S>({static_cast<pyb::ssize_t>(m.rows()), static_cast<pyb::ssize_t>(m.cols())},
+                        {s * m.rowStride(), s * m.colStride()}, m.data(), owner);
+  a.attr("setflags")(pyb::arg("write") = false);
+  return a;
+}
+
+/// "(4, 3)" / "(4,)": an array's shape for error messages.
+inline std::string shape_of(const pyb::array& a) {
+  std::string s = "(";
+  for (pyb::ssize_t k = 0; k < a.ndim(); ++k) s += (k ? ", " : "") + std::to_string(a.shape(k));
+  return s + (a.ndim() == 1 ? ",)" : ")");
+}
 void bind_errors(pyb::module_& m);     // bind_errors.cpp: FileError -> pairgrasp.FileError(RuntimeError)
 void bind_mesh(pyb::module_& m);       // bind_mesh.cpp: Mesh, load_mesh, make_mesh
 void bind_hand(pyb::module_& m);       // bind_hand.cpp: Hand, load_hand, Constellation

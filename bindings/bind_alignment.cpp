@@ -15,39 +15,15 @@ namespace pairgrasp::py {
 
 namespace {
 
-// A read-only NumPy view of an Eigen block held by `owner` (kept alive by the array).
-template <class M>
-pyb::array view(const M& m, pyb::handle owner) {
-  using S = typename M::Scalar;
-  const auto s = static_cast<pyb::ssize_t>(sizeof(S));
-  pyb::array a;
-  if (m.size() == 0) {  // nothing to share: a fresh empty array of the right shape
-    if (M::ColsAtCompileTime == 1) return pyb::array_t<S>(std::vector<pyb::ssize_t>{0});
-    return pyb::array_t<S>(std::vector<pyb::ssize_t>{0, static_cast<pyb::ssize_t>(m.cols())});
-  }
-  if (M::ColsAtCompileTime == 1) {
-    a = pyb::array_t<S>({static_cast<pyb::ssize_t>(m.rows())}, {s * m.innerStride()}, m.data(), owner);
-  } else {
-    a = pyb::array_t<S>({static_cast<pyb::ssize_t>(m.rows()), static_cast<pyb::ssize_t>(m.cols())},
-                        {s * m.rowStride(), s * m.colStride()}, m.data(), owner);
-  }
-  a.attr("setflags")(pyb::arg("write") = false);
-  return a;
-}
 
 Eigen::Matrix4d to_matrix(const Pose& p) { return p.matrix(); }
 
-std::string shape_of(const pyb::array& a) {
-  std::string s = "(";
-  for (pyb::ssize_t k = 0; k < a.ndim(); ++k) s += (k ? "," : "") + std::to_string(a.shape(k));
-  return s + (a.ndim() == 1 ? ",)" : ")");
-}
 
 // An (N,3) float array (anything NumPy converts) as Points; `rows` < 0: any N. Throws
 // std::invalid_argument (ValueError) naming the argument for anything else.
 Points as_points(const pyb::handle& obj, const std::string& name, long rows = -1) {
   using Array = pyb::array_t<double, pyb::array::c_style | pyb::array::forcecast>;
-  const std::string want = rows < 0 ? "(P,3)" : "(" + std::to_string(rows) + ",3)";
+  const std::string want = rows < 0 ? "(P, 3)" : "(" + std::to_string(rows) + ", 3)";
   Array a = Array::ensure(obj);
   if (!a) throw std::invalid_argument(name + ": expected a " + want + " float array");
   if (a.ndim() != 2 || a.shape(1) != 3 || (rows >= 0 && a.shape(0) != rows))
@@ -136,16 +112,16 @@ void bind_alignment(pyb::module_& m) {
                                  "A rigid pose carrying the gripper pair onto the target pair: "
                                  "p_T = rotation @ p_G + translation.")
       .def_property_readonly(
-          "rotation", [](pyb::object self) { return view(self.cast<const PairPoseCandidate&>().rotation, self); },
+          "rotation", [](pyb::object self) { return readonly_view(self.cast<const PairPoseCandidate&>().rotation, self); },
           "(3, 3) rotation, gripper (wrist) frame to target frame.")
       .def_property_readonly(
           "translation",
-          [](pyb::object self) { return view(self.cast<const PairPoseCandidate&>().translation, self); },
+          [](pyb::object self) { return readonly_view(self.cast<const PairPoseCandidate&>().translation, self); },
           "(3,) translation, metres (t = P_T - R P_G of the pair midpoints).")
       .def_property_readonly("pose", [](const PairPoseCandidate& c) { return to_matrix(c.pose()); },
                              "(4, 4) homogeneous transform.")
       .def_property_readonly(
-          "axis", [](pyb::object self) { return view(self.cast<const PairPoseCandidate&>().axis, self); },
+          "axis", [](pyb::object self) { return readonly_view(self.cast<const PairPoseCandidate&>().axis, self); },
           "(3,) canonical rotation axis (upper hemisphere).")
       .def_readonly("angle", &PairPoseCandidate::angle, "Rotation angle about `axis`, radians in (-pi, pi].")
       .def_property_readonly(
@@ -203,10 +179,10 @@ non-rigid one returns an empty list; solve_pair_pose_status() says which.
   pyb::class_<AlignedPose>(m, "AlignedPose",
                            "A pose of the gripper aligned with the target: p_T = rotation @ p_G + translation.")
       .def_property_readonly(
-          "rotation", [](pyb::object self) { return view(self.cast<const AlignedPose&>().rotation, self); },
+          "rotation", [](pyb::object self) { return readonly_view(self.cast<const AlignedPose&>().rotation, self); },
           "(3, 3) rotation, wrist frame to target frame.")
       .def_property_readonly(
-          "translation", [](pyb::object self) { return view(self.cast<const AlignedPose&>().translation, self); },
+          "translation", [](pyb::object self) { return readonly_view(self.cast<const AlignedPose&>().translation, self); },
           "(3,) translation, metres.")
       .def_property_readonly("pose", [](const AlignedPose& p) { return to_matrix(p.pose()); },
                              "(4, 4) homogeneous transform (the wrist pose in the target frame).")
@@ -219,7 +195,7 @@ non-rigid one returns an empty list; solve_pair_pose_status() says which.
       .def_readonly("angle_rms", &AlignedPose::angle_rms, "Radians: rms of angle(R_k, R) over the votes.")
       .def_readonly("correspondences", &AlignedPose::correspondences, "Supporting solver candidates.")
       .def_property_readonly(
-          "contacts", [](pyb::object self) { return view(self.cast<const AlignedPose&>().contacts, self); },
+          "contacts", [](pyb::object self) { return readonly_view(self.cast<const AlignedPose&>().contacts, self); },
           "(K, 2) int32: gripper sample index, target facet index (deduplicated, sorted).")
       .def("__repr__", [](const AlignedPose& p) {
         std::ostringstream o;

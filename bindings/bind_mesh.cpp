@@ -13,25 +13,7 @@ namespace {
 
 using namespace pybind11::literals;
 
-// A read-only (rows, 3) NumPy view of a row-major Eigen block owned by `owner`; the view keeps
-// `owner` alive.
-template <class Block>
-pyb::array view_of(const Block& block, const pyb::object& owner) {
-  using Scalar = typename Block::Scalar;
-  const auto s = static_cast<pyb::ssize_t>(sizeof(Scalar));
-  pyb::array_t<Scalar> a({static_cast<pyb::ssize_t>(block.rows()), pyb::ssize_t{3}}, {3 * s, s}, block.data(),
-                         owner);
-  a.attr("flags").attr("writeable") = false;
-  return std::move(a);
-}
 
-std::string shape_of(const pyb::array& a) {
-  std::ostringstream s;
-  s << "(";
-  for (pyb::ssize_t i = 0; i < a.ndim(); ++i) s << (i ? ", " : "") << a.shape(i);
-  s << (a.ndim() == 1 ? ",)" : ")");
-  return s.str();
-}
 
 Points vertices_from(const pyb::object& obj) {
   pyb::array a = pyb::module_::import("numpy").attr("asarray")(obj, "dtype"_a = "float64");
@@ -122,10 +104,10 @@ void bind_mesh(pyb::module_& m) {
                     "outside on closed parts; open parts keep the winding of the majority of their source "
                     "faces.")
       .def_property_readonly(
-          "vertices", [](const pyb::object& self) { return view_of(self.cast<const Mesh&>().vertices, self); },
+          "vertices", [](const pyb::object& self) { return readonly_view(self.cast<const Mesh&>().vertices, self); },
           "(V,3) float64 vertex positions, metres (read-only view).")
       .def_property_readonly(
-          "faces", [](const pyb::object& self) { return view_of(self.cast<const Mesh&>().faces, self); },
+          "faces", [](const pyb::object& self) { return readonly_view(self.cast<const Mesh&>().faces, self); },
           "(F,3) int32 vertex indices per triangle (read-only view).")
       .def_readonly("source", &Mesh::source, "The file it was loaded from, or the name given to make_mesh.")
       .def_readonly("closed", &Mesh::closed,

@@ -19,26 +19,7 @@ namespace {
 
 using namespace pybind11::literals;
 
-// A read-only NumPy view of an Eigen block owned by `owner` (the view keeps it alive).
-template <class M>
-pyb::array view(const M& m, pyb::handle owner) {
-  using S = typename M::Scalar;
-  const auto s = static_cast<pyb::ssize_t>(sizeof(S));
-  pyb::array a;
-  if (M::ColsAtCompileTime == 1)
-    a = pyb::array_t<S>({static_cast<pyb::ssize_t>(m.rows())}, {s}, m.data(), owner);
-  else
-    a = pyb::array_t<S>({static_cast<pyb::ssize_t>(m.rows()), static_cast<pyb::ssize_t>(m.cols())},
-                        {s * static_cast<pyb::ssize_t>(m.cols()), s}, m.data(), owner);
-  a.attr("setflags")("write"_a = false);
-  return a;
-}
 
-std::string shape_of(const pyb::array& a) {
-  std::string s = "(";
-  for (pyb::ssize_t k = 0; k < a.ndim(); ++k) s += (k ? ", " : "") + std::to_string(a.shape(k));
-  return s + (a.ndim() == 1 ? ",)" : ")");
-}
 
 pyb::array as_array(const pyb::handle& obj, const std::string& name) {
   try {
@@ -110,15 +91,15 @@ void bind_surface(pyb::module_& m) {
 A surface re-sampled into unit facets of about equal area (edge length `edge`, metres).
 Row k of every array describes facet k. Arrays are read-only views owned by this object.
 Made by tessellate().)doc")
-      .def_property_readonly("points", [](pyb::object self) { return view(self.cast<const UnitFacets&>().points, self); },
+      .def_property_readonly("points", [](pyb::object self) { return readonly_view(self.cast<const UnitFacets&>().points, self); },
                              "(N, 3) facet centres on the surface, metres.")
-      .def_property_readonly("normals", [](pyb::object self) { return view(self.cast<const UnitFacets&>().normals, self); },
+      .def_property_readonly("normals", [](pyb::object self) { return readonly_view(self.cast<const UnitFacets&>().normals, self); },
                              "(N, 3) unit outward normals (those of the source faces).")
-      .def_property_readonly("areas", [](pyb::object self) { return view(self.cast<const UnitFacets&>().areas, self); },
+      .def_property_readonly("areas", [](pyb::object self) { return readonly_view(self.cast<const UnitFacets&>().areas, self); },
                              "(N,) facet areas, m^2; they add up to the mesh area.")
-      .def_property_readonly("face_ids", [](pyb::object self) { return view(self.cast<const UnitFacets&>().face_ids, self); },
+      .def_property_readonly("face_ids", [](pyb::object self) { return readonly_view(self.cast<const UnitFacets&>().face_ids, self); },
                              "(N,) int32 index of the mesh face holding each centre.")
-      .def_property_readonly("free", [](pyb::object self) { return view(self.cast<const UnitFacets&>().free, self); },
+      .def_property_readonly("free", [](pyb::object self) { return readonly_view(self.cast<const UnitFacets&>().free, self); },
                              "(N,) bool: the facet is free (reachable), from its source face's paint.")
       .def_readonly("edge", &UnitFacets::edge, "The edge length h used, metres.")
       .def("__len__", [](const UnitFacets& u) { return u.points.rows(); })
@@ -192,20 +173,20 @@ The pairs are counted before anything is stored: over `max_pairs` raises ValueEr
            }),
            "points"_a, "normals"_a, "d_max"_a = 0.2, "free"_a = pyb::none(), "max_pairs"_a = 100'000'000,
            "threads"_a = 0)
-      .def_property_readonly("pairs", [](pyb::object self) { return view(self.cast<const PairIndex&>().pairs(), self); },
+      .def_property_readonly("pairs", [](pyb::object self) { return readonly_view(self.cast<const PairIndex&>().pairs(), self); },
                              "(M, 2) int32 facet indices of the stored pairs, i < j.")
       .def_property_readonly("features",
-                             [](pyb::object self) { return view(self.cast<const PairIndex&>().features(), self); },
+                             [](pyb::object self) { return readonly_view(self.cast<const PairIndex&>().features(), self); },
                              "(M, 3) float32 features (d, phi, beta_ij + beta_ji) of the stored pairs.")
-      .def_property_readonly("points", [](pyb::object self) { return view(self.cast<const PairIndex&>().points(), self); },
+      .def_property_readonly("points", [](pyb::object self) { return readonly_view(self.cast<const PairIndex&>().points(), self); },
                              "(N, 3) facet centres, metres.")
-      .def_property_readonly("normals", [](pyb::object self) { return view(self.cast<const PairIndex&>().normals(), self); },
+      .def_property_readonly("normals", [](pyb::object self) { return readonly_view(self.cast<const PairIndex&>().normals(), self); },
                              "(N, 3) unit normals.")
       .def_property_readonly("free",
                              [](pyb::object self) -> pyb::object {
                                const PairIndex& s = self.cast<const PairIndex&>();
                                if (s.free().size() == 0) return pyb::none();
-                               return view(s.free(), self);
+                               return readonly_view(s.free(), self);
                              },
                              "(N,) free mask, or None when every facet is free.")
       .def_property_readonly("d_max", &PairIndex::d_max, "Largest stored pair distance, metres.")

@@ -22,27 +22,7 @@ namespace {
 
 using namespace pybind11::literals;
 
-// A read-only NumPy view of an Eigen block held by `owner` (kept alive by the array).
-template <class M>
-pyb::array view_of(const M& m, pyb::handle owner) {
-  using S = typename M::Scalar;
-  const auto s = static_cast<pyb::ssize_t>(sizeof(S));
-  pyb::array a;
-  if (M::ColsAtCompileTime == 1) {
-    a = pyb::array_t<S>({static_cast<pyb::ssize_t>(m.rows())}, {s}, m.data(), owner);
-  } else {
-    a = pyb::array_t<S>({static_cast<pyb::ssize_t>(m.rows()), static_cast<pyb::ssize_t>(m.cols())},
-                        {s * m.cols(), s}, m.data(), owner);
-  }
-  a.attr("setflags")("write"_a = false);
-  return a;
-}
 
-std::string shape_str(const pyb::array& a) {
-  std::string s = "(";
-  for (pyb::ssize_t k = 0; k < a.ndim(); ++k) s += (k ? ", " : "") + std::to_string(a.shape(k));
-  return s + (a.ndim() == 1 ? ",)" : ")");
-}
 
 using DoubleArray = pyb::array_t<double, pyb::array::c_style | pyb::array::forcecast>;
 
@@ -60,7 +40,7 @@ DoubleArray as_double_array(const pyb::handle& obj, const std::string& name) {
 Points points_from(const pyb::handle& obj, const std::string& name) {
   const DoubleArray a = as_double_array(obj, name);
   if (a.ndim() != 2 || a.shape(1) != 3)
-    throw std::invalid_argument(name + ": expected an (N, 3) array, got shape " + shape_str(a));
+    throw std::invalid_argument(name + ": expected an (N, 3) array, got shape " + shape_of(a));
   Points p(a.shape(0), 3);
   std::copy(a.data(), a.data() + a.size(), p.data());
   return p;
@@ -68,7 +48,7 @@ Points points_from(const pyb::handle& obj, const std::string& name) {
 
 Eigen::VectorXd vector_from(const pyb::handle& obj, const std::string& name) {
   const DoubleArray a = as_double_array(obj, name);
-  if (a.ndim() != 1) throw std::invalid_argument(name + ": expected a 1-D array, got shape " + shape_str(a));
+  if (a.ndim() != 1) throw std::invalid_argument(name + ": expected a 1-D array, got shape " + shape_of(a));
   Eigen::VectorXd v(a.shape(0));
   std::copy(a.data(), a.data() + a.size(), v.data());
   return v;
@@ -87,14 +67,14 @@ Pose pose_from_data(const double* d, const std::string& name) {
 Pose pose_from(const pyb::handle& obj, const std::string& name) {
   const DoubleArray a = as_double_array(obj, name);
   if (a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)
-    throw std::invalid_argument(name + ": expected a 4x4 array, got shape " + shape_str(a));
+    throw std::invalid_argument(name + ": expected a 4x4 array, got shape " + shape_of(a));
   return pose_from_data(a.data(), name);
 }
 
 std::optional<Mask> mask_from(const pyb::handle& obj, const std::string& name) {
   if (obj.is_none()) return std::nullopt;
   pyb::array a = pyb::module_::import("numpy").attr("asarray")(obj);
-  if (a.ndim() != 1) throw std::invalid_argument(name + ": expected a 1-D boolean array, got shape " + shape_str(a));
+  if (a.ndim() != 1) throw std::invalid_argument(name + ": expected a 1-D boolean array, got shape " + shape_of(a));
   const std::string kind = pyb::str(a.dtype().attr("kind"));
   if (kind != "b") throw std::invalid_argument(name + ": expected a boolean array, got dtype " + std::string(pyb::str(a.dtype())));
   const auto b = pyb::array_t<bool, pyb::array::c_style | pyb::array::forcecast>::ensure(a);
@@ -182,24 +162,24 @@ std::string repr_check(const CheckResult& r) {
 void bind_validation(pyb::module_& m) {
   // ---------------------------------------------------------------- SurfaceQuery
   pyb::class_<SurfacePoints>(m, "SurfacePoints", "Closest surface points of a batch of query points (row k: point k).")
-      .def_property_readonly("points", [](pyb::object self) { return view_of(self.cast<const SurfacePoints&>().points, self); },
+      .def_property_readonly("points", [](pyb::object self) { return readonly_view(self.cast<const SurfacePoints&>().points, self); },
                              "(N,3) closest points on the surface, metres.")
-      .def_property_readonly("normals", [](pyb::object self) { return view_of(self.cast<const SurfacePoints&>().normals, self); },
+      .def_property_readonly("normals", [](pyb::object self) { return readonly_view(self.cast<const SurfacePoints&>().normals, self); },
                              "(N,3) unit outward normals of the faces holding them.")
-      .def_property_readonly("faces", [](pyb::object self) { return view_of(self.cast<const SurfacePoints&>().faces, self); },
+      .def_property_readonly("faces", [](pyb::object self) { return readonly_view(self.cast<const SurfacePoints&>().faces, self); },
                              "(N,) face ids.")
-      .def_property_readonly("distances", [](pyb::object self) { return view_of(self.cast<const SurfacePoints&>().distances, self); },
+      .def_property_readonly("distances", [](pyb::object self) { return readonly_view(self.cast<const SurfacePoints&>().distances, self); },
                              "(N,) unsigned distances, metres.")
       .def("__len__", [](const SurfacePoints& s) { return s.faces.size(); });
 
   pyb::class_<RayHits>(m, "RayHits", "First hits of a batch of rays (row k: ray k). No hit: face -1, t = inf.")
-      .def_property_readonly("t", [](pyb::object self) { return view_of(self.cast<const RayHits&>().t, self); },
+      .def_property_readonly("t", [](pyb::object self) { return readonly_view(self.cast<const RayHits&>().t, self); },
                              "(N,) distances along the normalised directions, metres (inf: no hit).")
-      .def_property_readonly("points", [](pyb::object self) { return view_of(self.cast<const RayHits&>().points, self); },
+      .def_property_readonly("points", [](pyb::object self) { return readonly_view(self.cast<const RayHits&>().points, self); },
                              "(N,3) hit points, metres.")
-      .def_property_readonly("normals", [](pyb::object self) { return view_of(self.cast<const RayHits&>().normals, self); },
+      .def_property_readonly("normals", [](pyb::object self) { return readonly_view(self.cast<const RayHits&>().normals, self); },
                              "(N,3) unit outward normals of the faces hit.")
-      .def_property_readonly("faces", [](pyb::object self) { return view_of(self.cast<const RayHits&>().faces, self); },
+      .def_property_readonly("faces", [](pyb::object self) { return readonly_view(self.cast<const RayHits&>().faces, self); },
                              "(N,) faces hit, -1 for none.")
       .def_property_readonly("hit", [](const RayHits& h) {
         pyb::array_t<bool> a(h.faces.size());
@@ -407,15 +387,15 @@ void bind_validation(pyb::module_& m) {
       });
 
   pyb::class_<Contacts>(m, "Contacts", "Contacts of a grasp with the target's free faces (target frame).")
-      .def_property_readonly("points", [](pyb::object self) { return view_of(self.cast<const Contacts&>().points, self); },
+      .def_property_readonly("points", [](pyb::object self) { return readonly_view(self.cast<const Contacts&>().points, self); },
                              "(C,3) points of the hand's active surfaces, metres.")
-      .def_property_readonly("target_points", [](pyb::object self) { return view_of(self.cast<const Contacts&>().target_points, self); },
+      .def_property_readonly("target_points", [](pyb::object self) { return readonly_view(self.cast<const Contacts&>().target_points, self); },
                              "(C,3) closest target surface points, metres.")
-      .def_property_readonly("normals", [](pyb::object self) { return view_of(self.cast<const Contacts&>().normals, self); },
+      .def_property_readonly("normals", [](pyb::object self) { return readonly_view(self.cast<const Contacts&>().normals, self); },
                              "(C,3) unit outward target normals at those points.")
-      .def_property_readonly("distances", [](pyb::object self) { return view_of(self.cast<const Contacts&>().distances, self); },
+      .def_property_readonly("distances", [](pyb::object self) { return readonly_view(self.cast<const Contacts&>().distances, self); },
                              "(C,) signed gaps (m): > 0 apart, < 0 inside the target.")
-      .def_property_readonly("faces", [](pyb::object self) { return view_of(self.cast<const Contacts&>().faces, self); },
+      .def_property_readonly("faces", [](pyb::object self) { return readonly_view(self.cast<const Contacts&>().faces, self); },
                              "(C,) target faces.")
       .def_property_readonly("links", [](const Contacts& c) {
         pyb::array_t<int> a(static_cast<pyb::ssize_t>(c.links.size()));
@@ -489,12 +469,12 @@ void bind_validation(pyb::module_& m) {
           [](const GraspChecker& c, const pyb::object& poses, const pyb::object& dofs, int threads) {
             const DoubleArray P = as_double_array(poses, "poses");
             if (P.ndim() != 3 || P.shape(1) != 4 || P.shape(2) != 4)
-              throw std::invalid_argument("poses: expected a (K, 4, 4) array, got shape " + shape_str(P));
+              throw std::invalid_argument("poses: expected a (K, 4, 4) array, got shape " + shape_of(P));
             const DoubleArray Q = as_double_array(dofs, "dofs");
             const long D = static_cast<long>(c.hand().dofs().size());
             if (Q.ndim() != 2 || Q.shape(0) != P.shape(0) || Q.shape(1) != D)
               throw std::invalid_argument("dofs: expected a (" + std::to_string(P.shape(0)) + ", " + std::to_string(D) +
-                                          ") array, got shape " + shape_str(Q));
+                                          ") array, got shape " + shape_of(Q));
             std::vector<Pose> wrists;
             std::vector<Eigen::VectorXd> qs;
             for (pyb::ssize_t k = 0; k < P.shape(0); ++k) {

@@ -1,5 +1,6 @@
 // pairgrasp::Hand: accessors, forward kinematics and active-surface constellations.
 #include "hand_impl.hpp"
+#include "surface_query_internal.hpp"
 
 #include <pairgrasp/error.hpp>
 #include <pairgrasp/facets.hpp>
@@ -12,28 +13,6 @@
 namespace pairgrasp {
 
 namespace hand_detail {
-
-Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                                          const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-  // Voronoi-region walk over the triangle's vertices, edges and interior.
-  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return a;
-  const Eigen::Vector3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
-  const Eigen::Vector3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-  const double denom = va + vb + vc;
-  return a + ab * (vb / denom) + ac * (vc / denom);
-}
 
 LinkSample per_link_sample(const Mesh& mesh, const std::vector<int>& faces) {
   auto corner = [&](int f, int k) -> Eigen::Vector3d { return mesh.vertices.row(mesh.faces(f, k)).transpose(); };
@@ -50,7 +29,7 @@ LinkSample per_link_sample(const Mesh& mesh, const std::vector<int>& faces) {
   double best = std::numeric_limits<double>::infinity();
   int best_face = faces.front();
   for (int f : faces) {
-    const Eigen::Vector3d q = closest_point_on_triangle(centroid, corner(f, 0), corner(f, 1), corner(f, 2));
+    const Eigen::Vector3d q = validation_detail::closest_on_triangle(centroid, corner(f, 0), corner(f, 1), corner(f, 2));
     const double d = (q - centroid).squaredNorm();
     if (d < best) best = d, s.point = q, best_face = f;
   }

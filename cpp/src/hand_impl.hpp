@@ -80,9 +80,6 @@ struct AreaSamples {
 /// Per-link sample of an active surface: see ConstellationMode::PerLink.
 LinkSample per_link_sample(const Mesh& mesh, const std::vector<int>& faces);
 
-/// Closest point of triangle (a, b, c) to p.
-Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                                          const Eigen::Vector3d& b, const Eigen::Vector3d& c);
 
 }  // namespace hand_detail
 

@@ -25,6 +25,11 @@ enum TriFeature : int {
 /// Closest point of triangle (a, b, c) to p, and the feature holding it (Ericson, Real-Time
 /// Collision Detection, 5.1.5). The triangle must not be degenerate.
 Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, int& feature);
+/// Closest point of triangle (a, b, c) to p.
+inline Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  int feature = kFace;
+  return closest_on_triangle(p, a, b, c, feature);
+}
 
 /// Squared distance between segments [p1,q1] and [p2,q2]; c1, c2 receive the closest points.
 double segment_segment_dist2(const Vec3& p1, const Vec3& q1, const Vec3& p2, const Vec3& q2,

@@ -107,9 +107,9 @@ def test_solver_degenerate_fuzz_is_finite():
 def test_solver_bad_input():
     p = np.zeros((2, 3))
     n = np.array([[0, 0, 1], [0, 0, 1.]])
-    with pytest.raises(ValueError, match=r"gripper_points: expected \(2,3\), got \(3,3\)"):
+    with pytest.raises(ValueError, match=r"gripper_points: expected \(2, 3\), got \(3, 3\)"):
         pg.solve_pair_pose(np.zeros((3, 3)), n, p, n)
-    with pytest.raises(ValueError, match=r"target_normals: expected \(2,3\), got \(2,\)"):
+    with pytest.raises(ValueError, match=r"target_normals: expected \(2, 3\), got \(2,\)"):
         pg.solve_pair_pose(p, n, p, np.zeros(2))
     with pytest.raises(ValueError, match="gripper_normals: row 1"):
         pg.solve_pair_pose(p, np.array([[0, 0, 1], [0, 0, 2.]]), p, n)
@@ -242,7 +242,7 @@ def test_align_releases_the_gil_and_is_thread_safe(target):
 def test_aligner_bad_input(target):
     fp, fn, index = target
     a = pg.Aligner(index)
-    with pytest.raises(ValueError, match=r"points: expected \(P,3\), got \(4,\)"):
+    with pytest.raises(ValueError, match=r"points: expected \(P, 3\), got \(4,\)"):
         a.align(np.zeros(4), np.zeros((4, 3)))
     with pytest.raises(ValueError, match=r"normals: expected \(3,3\) like points, got \(2,3\)"):
         a.align(np.zeros((3, 3)), np.tile([0, 0, 1.0], (2, 1)))
