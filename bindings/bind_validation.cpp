@@ -6,6 +6,7 @@
 #include <pairgrasp/grasp.hpp>
 #include <pairgrasp/reachability.hpp>
 #include <pairgrasp/surface_query.hpp>
+#include <pairgrasp/wrenches.hpp>
 
 #include <pairgrasp/error.hpp>
 
@@ -532,6 +533,25 @@ void bind_validation(pyb::module_& m) {
       "hand"_a, "dofs"_a,
       "(D,) closing direction of each DOF at `dofs`: +1, -1, or 0 for DOFs that do not close the hand (the "
       "Barrett spread), from the motion of the active surfaces along their normals.");
+
+  m.def(
+      "contact_wrenches",
+      [](const pyb::object& points, const pyb::object& normals, const pyb::object& center, double radius, double mu,
+         int edges) {
+        const Points p = points_from(points, "points");
+        const Points n = points_from(normals, "normals");
+        const Eigen::VectorXd c = vector_from(center, "center");
+        detail::check_size("center: values", 3, c.size());
+        Wrenches w;
+        {
+          pyb::gil_scoped_release release;
+          w = wrench_matrix(p, n, Eigen::Vector3d(c), radius, mu, edges);
+        }
+        return Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>(w);
+      },
+      "points"_a, "normals"_a, "center"_a, "radius"_a, "mu"_a = 0.5, "edges"_a = 8,
+      "(N*edges, 6) friction-pyramid wrenches [f; (p - center) x f / radius] computed in C++ (the same "
+      "convention as pairgrasp.wrench_matrix for point contacts); normals are the target's outward normals.");
 }
 
 }  // namespace pairgrasp::py

@@ -469,3 +469,22 @@ def test_bad_input_raises_value_error_naming_the_argument(fn, change, name):
     kwargs = dict(GOOD, **change)
     with pytest.raises(ValueError, match=rf"^{name}:"):
         fn(**kwargs)
+
+
+def test_cpp_contact_wrenches_match_python():
+    """The C++ wrench matrix (pairgrasp.contact_wrenches) and the NumPy one are written
+    independently; they must agree row for row."""
+    rng = np.random.default_rng(11)
+    P = rng.normal(size=(6, 3)) * 0.05
+    N = rng.normal(size=(6, 3))
+    N[2] = [0.0, 0.0, 2.0]          # a tie in the tangent-axis choice, and a non-unit normal
+    c = rng.normal(size=3) * 0.01
+    for mu, k in ((0.5, 8), (0.0, 3), (1.3, 17)):
+        cpp = np.asarray(pg.contact_wrenches(P, N, c, 0.07, mu=mu, edges=k))
+        py = pg.wrench_matrix(P, N, c, 0.07, mu=mu, edges=k)
+        assert cpp.shape == py.shape == (6 * k, 6)
+        np.testing.assert_allclose(cpp, py, atol=1e-13)
+    with pytest.raises(ValueError, match="edges"):
+        pg.contact_wrenches(P, N, c, 0.07, edges=2)
+    with pytest.raises(ValueError, match="radius"):
+        pg.contact_wrenches(P, N, c, -1.0)
