@@ -223,3 +223,27 @@ def test_fine_tune_barrett_mug(barrett_mug):
     # Per-DOF steps of zero keep the DOFs at their start before closing.
     r0 = pg.fine_tune(checker, w, np.zeros(4), step=np.zeros(4), facet_size=0.01, iterations=5, seed=1)
     assert np.array_equal(r0.best.start_dofs, np.zeros(4))
+
+
+def test_fine_tune_barrett_flask():
+    """A side grasp of the flask's body: the palm faces the flask along target -x, 20 mm off its
+    widest radius, fingers open; the finger rows (wrist y) straddle the body. Closing gives a
+    force-closure grasp that fine-tuning keeps or improves, never pruned, same result per seed."""
+    mesh = pg.load_mesh(MODELS / "targets" / "flask.stl")
+    free = pg.load_paint(MODELS / "targets" / "flask.paint.json", mesh)
+    hand = pg.load_hand(MODELS / "barrett" / "barrett.json")
+    checker = pg.GraspChecker(hand, mesh, free=free, depth_tolerance=0.0015)
+    radius = 0.5 * (mesh.bounds[1][0] - mesh.bounds[0][0])      # widest radius of the body
+    T = np.eye(4)
+    T[:3, :3] = np.array([[0, 0, -1], [0, 1, 0], [1, 0, 0]], float)  # wrist z (approach) = target -x
+    T[:3, 3] = [radius + 0.075 + 0.02, 0.0, 0.04]                     # palm top 20 mm off the body
+    start = pg.evaluate_grasp(checker, T, np.zeros(4))
+    assert not start.pruned and start.force_closure and start.epsilon > 0
+    # every contact is on the flask's free surface, below the occluded neck top
+    assert np.all(np.asarray(start.contact_points)[:, 2] < 0.12)
+    a = pg.fine_tune(checker, T, np.zeros(4), facet_size=0.005, iterations=12, seed=3)
+    b = pg.fine_tune(checker, T, np.zeros(4), facet_size=0.005, iterations=12, seed=3)
+    assert a.best is not None and not a.best.pruned
+    assert a.best.epsilon >= start.epsilon - 1e-12
+    assert a.best.epsilon == b.best.epsilon
+    np.testing.assert_array_equal(a.best.wrist_pose, b.best.wrist_pose)
