@@ -2,8 +2,9 @@
 // Test meshes for the surface tests, built from their dimensions (independent of the library).
 #include <pairgrasp/mesh.hpp>
 
+#include "validation_test_meshes.hpp"
+
 #include <cmath>
-#include <map>
 #include <vector>
 
 namespace surface_test {
@@ -61,38 +62,9 @@ inline Mesh fan_cylinder(double r, double h, int seg) {
   return from_arrays(v, f, "fan_cylinder");
 }
 
-/// Icosphere of radius r: an icosahedron subdivided `level` times, vertices pushed to the sphere.
-inline Mesh icosphere(double r, int level) {
-  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<Eigen::Vector3d> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                                    {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
-  std::vector<Eigen::Vector3i> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-                                    {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-                                    {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-                                    {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
-  for (auto& p : v) p.normalize();
-  for (int l = 0; l < level; ++l) {
-    std::map<std::pair<int, int>, int> mid;
-    auto midpoint = [&](int a, int b) {
-      auto key = std::make_pair(std::min(a, b), std::max(a, b));
-      auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      v.push_back((v[a] + v[b]).normalized());
-      return mid[key] = int(v.size()) - 1;
-    };
-    std::vector<Eigen::Vector3i> g;
-    for (auto& x : f) {
-      const int a = midpoint(x[0], x[1]), b = midpoint(x[1], x[2]), c = midpoint(x[2], x[0]);
-      g.emplace_back(x[0], a, c);
-      g.emplace_back(x[1], b, a);
-      g.emplace_back(x[2], c, b);
-      g.emplace_back(a, b, c);
-    }
-    f.swap(g);
-  }
-  for (auto& p : v) p *= r;
-  return from_arrays(v, f, "icosphere");
-}
+/// Icosphere of radius r: an icosahedron subdivided `level` times, vertices pushed to the sphere
+/// (the validation tests' construction).
+inline Mesh icosphere(double r, int level) { return pairgrasp::testing_meshes::icosphere(r, level); }
 
 /// Area of a face computed from its vertices.
 inline double face_area(const Mesh& m, int f) {
