@@ -29,7 +29,7 @@ import numpy as np
 
 from .quality import grasp_quality
 
-__all__ = ["GraspEvaluation", "FineTuneResult", "evaluate_grasp", "fine_tune", "torque_reference"]
+__all__ = ["GraspEvaluation", "FineTuneResult", "evaluate_grasp", "fine_tune", "reduce_contacts", "torque_reference"]
 
 # Same tolerance as the C++ rigidity check (collision.cpp check_rigid): max |R^T R - I|.
 _RIGID_TOL = 1e-6
@@ -195,7 +195,44 @@ def _reference(checker, center, radius):
 
 # ---------------------------------------------------------------------------------------- evaluate
 
-def _evaluate(checker, wrist, q, center, radius, mu, edges, close, soft, torsion) -> GraspEvaluation:
+def reduce_contacts(points, links, per_link: int) -> np.ndarray:
+    """Indices (sorted) of at most ``per_link`` contacts per link, spread by farthest-point sampling.
+
+    A finger pressed on a surface reports a patch of many contacts; the wrench hull of the patch is
+    dominated by its extreme points. Per link, the first kept contact is the one farthest from the
+    link's contact centroid, each next one the farthest from those kept (ties: the lowest index).
+    The hull of the kept contacts' wrenches lies inside the hull of all of them, so epsilon computed
+    from them is a lower bound of the full epsilon and force closure is never claimed wrongly.
+    """
+    pts = np.asarray(points, dtype=float).reshape(-1, 3)
+    names = list(links)
+    if len(names) != len(pts):
+        raise ValueError(f"links: expected {len(pts)} names, got {len(names)}")
+    if isinstance(per_link, bool) or not isinstance(per_link, (numbers.Integral, np.integer)) or per_link < 1:
+        raise ValueError(f"per_link: expected an integer >= 1, got {per_link!r}")
+    keep = []
+    groups = {}
+    for i, name in enumerate(names):
+        groups.setdefault(name, []).append(i)
+    for idx in groups.values():
+        idx = np.asarray(idx)
+        if len(idx) <= per_link:
+            keep.extend(idx.tolist())
+            continue
+        p = pts[idx]
+        d = ((p - p.mean(axis=0)) ** 2).sum(axis=1)
+        sel = []
+        for _ in range(per_link):
+            j = int(np.argmax(d))
+            sel.append(j)
+            d = np.minimum(d, ((p - p[j]) ** 2).sum(axis=1))
+            d[sel] = -1.0
+        keep.extend(idx[sel].tolist())
+    return np.array(sorted(keep), dtype=int)
+
+
+def _evaluate(checker, wrist, q, center, radius, mu, edges, close, soft, torsion,
+              per_link=None) -> GraspEvaluation:
     if close:
         cr = checker.close(wrist, q)
         dofs = np.array(cr.dofs, dtype=float)
@@ -211,7 +248,12 @@ def _evaluate(checker, wrist, q, center, radius, mu, edges, close, soft, torsion
     if check.pruned:
         eps, vol, fc, qreason = 0.0, 0.0, False, f"pruned: {check.reason}"
     else:
-        gq = grasp_quality(points, normals, center, radius, mu=mu, edges=edges, soft=soft, torsion=torsion)
+        if per_link is not None and len(points):
+            k = reduce_contacts(points, contacts.link_names, per_link)
+            qp, qn = points[k], normals[k]
+        else:
+            qp, qn = points, normals
+        gq = grasp_quality(qp, qn, center, radius, mu=mu, edges=edges, soft=soft, torsion=torsion)
         eps, vol, fc, qreason = float(gq.epsilon), float(gq.volume), bool(gq.force_closure), gq.reason
     wrist = wrist.copy()
     for a in (wrist, dofs, points, normals):
@@ -227,7 +269,7 @@ def _evaluate(checker, wrist, q, center, radius, mu, edges, close, soft, torsion
 
 
 def evaluate_grasp(checker, wrist_pose, dofs, center=None, radius=None, mu=0.5, edges=8, close=True,
-                   soft=False, torsion=None) -> GraspEvaluation:
+                   soft=False, torsion=None, contacts_per_link=None) -> GraspEvaluation:
     """Close, check and score one grasp.
 
     Args:
@@ -238,6 +280,9 @@ def evaluate_grasp(checker, wrist_pose, dofs, center=None, radius=None, mu=0.5, 
         radius: torque scale (m); default the target's largest vertex distance from its centre of mass.
         mu, edges, soft, torsion: friction model, as :func:`pairgrasp.grasp_quality`.
         close: close the closing DOFs onto contact first (else evaluate ``dofs`` as given).
+        contacts_per_link: score at most this many contacts per link (:func:`reduce_contacts`): a
+            lower bound of epsilon, an order of magnitude faster on contact patches of ~100
+            contacts. None: every contact. The evaluation still lists every contact.
 
     Returns:
         GraspEvaluation. A pruned grasp has epsilon 0, force_closure False, and the reason.
@@ -249,7 +294,14 @@ def evaluate_grasp(checker, wrist_pose, dofs, center=None, radius=None, mu=0.5, 
     wrist = _pose("wrist_pose", wrist_pose)
     q = _dofs("dofs", dofs, checker.hand)
     center, radius = _reference(checker, center, radius)
-    return _evaluate(checker, wrist, q, center, radius, mu, edges, bool(close), soft, torsion)
+    _per_link(contacts_per_link)
+    return _evaluate(checker, wrist, q, center, radius, mu, edges, bool(close), soft, torsion, contacts_per_link)
+
+
+def _per_link(value):
+    if value is not None and (isinstance(value, bool) or not isinstance(value, (numbers.Integral, np.integer))
+                              or value < 1):
+        raise ValueError(f"contacts_per_link: expected None or an integer >= 1, got {value!r}")
 
 
 # ---------------------------------------------------------------------------------------- fine-tune
@@ -281,7 +333,7 @@ def _better(a: GraspEvaluation, b: Optional[GraspEvaluation]) -> bool:
 
 def fine_tune(checker, wrist_pose, dofs, step=None, facet_size=None, iterations=30, seed=0, angle_deg=3.0,
               translation=None, center=None, radius=None, mu=0.5, edges=8, soft=False,
-              torsion=None) -> FineTuneResult:
+              torsion=None, contacts_per_link=None) -> FineTuneResult:
     """Local random search around a grasp for a better epsilon.
 
     The start is closed onto contact and scored (:func:`evaluate_grasp`). Each of ``iterations``
@@ -310,7 +362,7 @@ def fine_tune(checker, wrist_pose, dofs, step=None, facet_size=None, iterations=
         seed: seed of the random generator.
         angle_deg: largest rotation of a trial (degrees, >= 0).
         translation: largest translation of a trial (m); default ``facet_size / 2``.
-        center, radius, mu, edges, soft, torsion: as :func:`evaluate_grasp`.
+        center, radius, mu, edges, soft, torsion, contacts_per_link: as :func:`evaluate_grasp`.
 
     Returns:
         FineTuneResult: ``best`` (never pruned; None when the start is pruned and no trial was
@@ -355,7 +407,8 @@ def fine_tune(checker, wrist_pose, dofs, step=None, facet_size=None, iterations=
     grasp_quality(np.zeros((0, 3)), np.zeros((0, 3)), center, radius, mu=mu, edges=edges, soft=soft,
                   torsion=torsion)
 
-    start = _evaluate(checker, wrist, q0, center, radius, mu, edges, True, soft, torsion)
+    _per_link(contacts_per_link)
+    start = _evaluate(checker, wrist, q0, center, radius, mu, edges, True, soft, torsion, contacts_per_link)
     pivot = start.contact_points.mean(axis=0) if start.n_contacts else wrist[:3, 3].copy()
     rng = np.random.default_rng(seed)
     best = None if start.pruned else start
@@ -367,7 +420,7 @@ def fine_tune(checker, wrist_pose, dofs, step=None, facet_size=None, iterations=
         w = np.eye(4)
         w[:3, :3] = r @ wrist[:3, :3]
         w[:3, 3] = r @ (wrist[:3, 3] - pivot) + pivot + t
-        trial = _evaluate(checker, w, q, center, radius, mu, edges, True, soft, torsion)
+        trial = _evaluate(checker, w, q, center, radius, mu, edges, True, soft, torsion, contacts_per_link)
         if not trial.pruned:
             kept += 1
         if _better(trial, best):
