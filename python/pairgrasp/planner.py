@@ -1,0 +1,864 @@
+"""The grasp planner: the whole pipeline of the method in one call.
+
+:class:`Planner` builds the target's unit facets and pair index once, schedules DOF samples of the
+hand, aligns each sample's constellation with the target (:class:`pairgrasp.Aligner`), settles each
+aligned pose out of penetration, closes the fingers onto contact, scores the contacts on free faces
+(Ferrari-Canny epsilon), fine-tunes the best grasps and ranks them.
+
+Stages (the keys of :attr:`PlanResult.timings`):
+
+``index``
+    Tessellate the target at the unit-facet edge ``h`` and index its free pairs with d <= d_max.
+``schedule``
+    The DOF samples. ``grid`` is the paper's exhaustive even grid (every DOF sampled every ``step``);
+    ``fast`` is coarse-to-fine: a grid ``coarse_factor`` times coarser, then the fine-grid
+    neighbours of the ``refine`` most promising coarse samples. Both reject, before alignment, the
+    samples whose gripper pair features find target pairs for a smaller fraction of the gripper
+    pairs than ``min_match_fraction`` times the best sample of the first grid (the separability of
+    the paper's Figure 7): such a sample cannot collect the votes of a good alignment. The threshold
+    is relative because the attainable fraction depends on the target: a box's pairs have normals
+    at 0, 90 or 180 degrees only and match at most ~70% of the Barrett hand's pairs, a mug's match
+    nearly all. The grid uses the same rejection only when ``reject`` is set.
+``align``
+    The three-pass alignment of every kept sample (all cores); the best ``poses_per_sample`` poses
+    of each become candidates.
+``settle``
+    A candidate is kept as aligned when it does not penetrate (depth within ``depth_tolerance``, no
+    occluded face, no obstacle). Otherwise, like GraspIt's approach, its closing DOFs are opened
+    and the wrist backs off along the hand's approach axis by the penetration depth plus a margin,
+    at most ``backoff`` metres; a candidate still pruned is dropped. The aligned pose fixes the
+    approach line, roll and spread; a 0.25 rad grid point puts a fingertip up to ~30 mm from where
+    it would touch, so the fingers are closed onto contact in the next stage anyway.
+``evaluate``
+    Candidates that settle to the same pose (within ``h``, ~3 degrees and half a DOF step) are
+    evaluated once. Each is closed onto contact, checked and scored (:func:`pairgrasp.evaluate_grasp`)
+    on all cores.
+``fine_tune``
+    The ``fine_tune`` best distinct grasps are refined by :func:`pairgrasp.fine_tune`.
+
+Ranking: force closure first, then epsilon, then Q_A, then votes. Epsilon is the quantity users
+act on; Q_A says how well the hand's shape matched the surface before closing, and the planned
+candidates show only a weak relation between the two (Figure 8, ``docs/experiments.md``), so Q_A
+breaks ties and orders grasps that are not force-closure.
+
+Everything is deterministic for a given seed and thread count independent: alignment merges votes
+in a fixed order, candidates are processed in sample order, and the fine-tuning of the grasp of
+rank k uses ``seed + k``.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+import numbers
+import os
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict, dataclass, field, fields
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from . import _core
+from .grasp import evaluate_grasp, fine_tune, torque_reference
+from .quality import grasp_quality
+
+__all__ = ["PlanParams", "Grasp", "Candidate", "PlanResult", "Planner", "dof_grid"]
+
+
+@dataclass
+class PlanParams:
+    """Parameters of :class:`Planner` (metres, radians).
+
+    Attributes:
+        schedule: ``"grid"`` (exhaustive) or ``"fast"`` (coarse-to-fine with early rejection).
+        step: sampling step (rad) of every angular DOF; None: the hand's ``dof_step``. Linear DOFs
+            keep the hand's step.
+        edge: unit-facet edge h (m); None: 5 mm, or 1/15 of the target's smallest extent if
+            smaller, or coarser when the pair budget requires it (:func:`pairgrasp.suggest_edge`).
+        d_max: largest stored pair distance (m); None: the largest distance between two samples
+            of the hand's constellations over its DOF range, plus h.
+        max_pairs: pair budget of the index.
+        constellation: ``"per_link"`` (the paper's one sample per active link), ``"area"`` (samples
+            ``spacing`` apart over the active surfaces) or ``"auto"``: per-link unless every
+            per-link pair is antipodal or there are fewer than 3 per-link samples (a parallel
+            jaw), then area.
+        spacing: area-sample spacing (m); None: the smallest multiple of h giving at most
+            ``max_area_samples`` samples at mid-range.
+        max_area_samples: see ``spacing``.
+        poses_per_sample: aligned poses per DOF sample that become candidates.
+        min_match_fraction: early rejection threshold, relative to the best sample of the first
+            grid (the fraction of a sample's gripper pairs that match a target pair).
+        reject: apply the early rejection (None: only for ``fast``).
+        coarse_factor: ``fast``: the coarse grid's step in fine steps.
+        refine: ``fast``: coarse samples whose fine-grid neighbourhoods are sampled.
+        depth_tolerance: penetration tolerated (m); None: h / 4.
+        gap: contact gap (m).
+        backoff: largest back-off along the approach axis when settling (m); None: the hand's
+            reach (the largest distance of a constellation sample from the wrist) / 2.
+        max_evaluations: candidates closed and scored at most, best Q_A first (None: all).
+        fine_tune: how many of the best grasps are fine-tuned.
+        fine_tune_iterations: trials per fine-tuned grasp.
+        contacts_per_link: while searching, epsilon is computed from at most this many contacts per
+            link (:func:`pairgrasp.reduce_contacts`, a lower bound); the returned grasps are scored
+            again with every contact. None: every contact throughout (slower by ~10x on the Barrett
+            hand, whose links report patches of ~100 contacts).
+        mu, edges: friction coefficient and friction-pyramid edges.
+        top: grasps returned.
+        seed: seed of the fine-tuning.
+        threads: worker threads (0: every core).
+    """
+
+    schedule: str = "fast"
+    step: Optional[float] = None
+    edge: Optional[float] = None
+    d_max: Optional[float] = None
+    max_pairs: int = 20_000_000
+    constellation: str = "auto"
+    spacing: Optional[float] = None
+    max_area_samples: int = 24
+    poses_per_sample: int = 3
+    min_match_fraction: float = 0.5
+    reject: Optional[bool] = None
+    coarse_factor: int = 3
+    refine: int = 6
+    depth_tolerance: Optional[float] = None
+    gap: float = 0.001
+    backoff: Optional[float] = None
+    max_evaluations: Optional[int] = None
+    fine_tune: int = 5
+    fine_tune_iterations: int = 20
+    contacts_per_link: Optional[int] = 6
+    mu: float = 0.5
+    edges: int = 8
+    top: int = 10
+    seed: int = 0
+    threads: int = 0
+
+    def validate(self) -> None:
+        """Raises ValueError naming the first bad field."""
+        if self.schedule not in ("grid", "fast"):
+            raise ValueError(f"schedule: expected 'grid' or 'fast', got {self.schedule!r}")
+        if self.constellation not in ("auto", "per_link", "area"):
+            raise ValueError(f"constellation: expected 'auto', 'per_link' or 'area', got {self.constellation!r}")
+        for name in ("step", "edge", "d_max", "spacing", "backoff", "depth_tolerance"):
+            v = getattr(self, name)
+            if v is not None:
+                _positive(name, v, allow_zero=name in ("backoff", "depth_tolerance"))
+        _positive("gap", self.gap, allow_zero=True)
+        _positive("mu", self.mu, allow_zero=True)
+        if not (isinstance(self.min_match_fraction, numbers.Real) and 0.0 <= self.min_match_fraction <= 1.0):
+            raise ValueError(f"min_match_fraction: expected a number in [0, 1], got {self.min_match_fraction!r}")
+        for name, low in (("max_pairs", 1), ("max_area_samples", 3), ("poses_per_sample", 1),
+                          ("coarse_factor", 1), ("refine", 0), ("fine_tune", 0), ("fine_tune_iterations", 0),
+                          ("edges", 3), ("top", 1), ("seed", 0), ("threads", 0)):
+            _integer(name, getattr(self, name), low)
+        if self.max_evaluations is not None:
+            _integer("max_evaluations", self.max_evaluations, 1)
+        if self.contacts_per_link is not None:
+            _integer("contacts_per_link", self.contacts_per_link, 1)
+
+
+def _positive(name, value, allow_zero=False):
+    ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(float(value))
+    if not ok or float(value) < 0.0 or (not allow_zero and float(value) == 0.0):
+        raise ValueError(f"{name}: expected a finite number {'>=' if allow_zero else '>'} 0, got {value!r}")
+
+
+def _integer(name, value, low):
+    if isinstance(value, bool) or not isinstance(value, (numbers.Integral, np.integer)) or value < low:
+        raise ValueError(f"{name}: expected an integer >= {low}, got {value!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class Grasp:
+    """One planned grasp.
+
+    Attributes:
+        rank: 1 for the best.
+        wrist_pose: (4,4) wrist frame in the target frame (m).
+        dofs: (D,) closed DOF values, in the hand's DOF order.
+        joints: {joint name: value} of every moving joint (mimics applied).
+        epsilon, volume, force_closure: Ferrari-Canny quality of the contacts on free faces.
+        alignment_quality: Q_A of the alignment the grasp came from.
+        votes: rotation votes of that alignment.
+        penetration_depth: largest penetration depth of the hand (m), within the tolerance.
+        contact_points, contact_normals: (C,3) contacts and outward target normals.
+        contact_links: link of each contact.
+        sample: (D,) the DOF sample that was aligned.
+        aligned_pose: (4,4) the aligned wrist pose before settling.
+        backoff: distance the wrist backed off along the approach axis (m).
+        fine_tuned: the grasp is a fine-tuning trial better than the planned one.
+    """
+
+    rank: int
+    wrist_pose: np.ndarray
+    dofs: np.ndarray
+    joints: Dict[str, float]
+    epsilon: float
+    volume: float
+    force_closure: bool
+    alignment_quality: float
+    votes: int
+    penetration_depth: float
+    contact_points: np.ndarray
+    contact_normals: np.ndarray
+    contact_links: Tuple[str, ...]
+    sample: np.ndarray
+    aligned_pose: np.ndarray
+    backoff: float
+    fine_tuned: bool
+
+    def to_dict(self) -> dict:
+        """JSON-ready dictionary (the grasps.json schema)."""
+        return {
+            "rank": self.rank,
+            "wrist_pose": _round(self.wrist_pose),
+            "dof": _round(self.dofs),
+            "joints": {k: _round(v) for k, v in self.joints.items()},
+            "epsilon": _round(self.epsilon),
+            "volume": _round(self.volume),
+            "force_closure": bool(self.force_closure),
+            "alignment_quality": _round(self.alignment_quality),
+            "votes": int(self.votes),
+            "penetration_depth": _round(self.penetration_depth),
+            "contacts": [{"point": _round(p), "normal": _round(n), "link": link}
+                         for p, n, link in zip(self.contact_points, self.contact_normals, self.contact_links)],
+            "sample": _round(self.sample),
+            "aligned_pose": _round(self.aligned_pose),
+            "backoff": _round(self.backoff),
+            "fine_tuned": bool(self.fine_tuned),
+        }
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """An evaluated candidate (for Figure 8): its sample index, Q_A, votes and outcome."""
+
+    sample: int
+    alignment_quality: float
+    votes: int
+    epsilon: float
+    force_closure: bool
+    settled: str  # "aligned" or "backed_off"
+
+
+@dataclass
+class PlanResult:
+    """What :meth:`Planner.plan` returns.
+
+    Attributes:
+        grasps: ranked grasps (at most ``params.top``), best first.
+        candidates: every evaluated candidate, in evaluation order.
+        timings: seconds per stage.
+        counts: unit facets, stored pairs, DOF samples (scheduled, rejected, aligned), candidates
+            (aligned poses, settled, evaluated), force-closure grasps.
+        edge, d_max: the unit-facet edge and pair distance used (m).
+        constellation, spacing: the constellation mode and spacing used.
+        params: the parameters (defaults resolved).
+        inputs: file names and hand/target summaries.
+    """
+
+    grasps: List[Grasp]
+    candidates: List[Candidate]
+    timings: Dict[str, float]
+    counts: Dict[str, int]
+    edge: float
+    d_max: float
+    constellation: str
+    spacing: Optional[float]
+    params: PlanParams
+    inputs: dict
+
+    @property
+    def best_epsilon(self) -> float:
+        return max((g.epsilon for g in self.grasps), default=0.0)
+
+    def to_dict(self) -> dict:
+        """The grasps.json document (timings under the top-level key ``timings``)."""
+        return {
+            "format": "pairgrasp.grasps/1",
+            "inputs": self.inputs,
+            "parameters": {**asdict(self.params), "edge": _round(self.edge), "d_max": _round(self.d_max),
+                           "constellation": self.constellation,
+                           "spacing": None if self.spacing is None else _round(self.spacing)},
+            "counts": dict(self.counts),
+            "timings": {k: round(v, 4) for k, v in self.timings.items()},
+            "grasps": [g.to_dict() for g in self.grasps],
+        }
+
+
+def _round(x, digits: int = 9):
+    """Floats rounded to `digits` decimals (nm / nrad), arrays to nested lists."""
+    if isinstance(x, np.ndarray):
+        return np.round(x.astype(float), digits).tolist()
+    return round(float(x), digits)
+
+
+def dof_grid(lower: Sequence[float], upper: Sequence[float], step: Sequence[float]) -> List[np.ndarray]:
+    """Per-DOF sample values: lower, lower + step, ..., and upper (a last, shorter step when the range
+    is not a multiple of the step). A DOF with lower == upper or step 0 has one value."""
+    out = []
+    for lo, hi, st in zip(lower, upper, step):
+        if hi - lo <= 1e-12 or st <= 0:
+            out.append(np.array([lo], float))
+            continue
+        n = int(math.floor((hi - lo) / st + 1e-9))
+        vals = lo + st * np.arange(n + 1)
+        if hi - vals[-1] > 1e-9 * max(1.0, abs(hi)):
+            vals = np.append(vals, hi)
+        out.append(vals)
+    return out
+
+
+class _Progress:
+    """A one-line progress bar on stderr, drawn only when stderr is a terminal (or forced)."""
+
+    def __init__(self, enabled: Optional[bool]):
+        self.enabled = sys.stderr.isatty() if enabled is None else bool(enabled)
+        self.label, self.total, self.done, self.last = "", 0, 0, 0.0
+
+    def start(self, label: str, total: int):
+        self.label, self.total, self.done = label, max(int(total), 1), 0
+        self._draw(force=True)
+
+    def advance(self, n: int = 1):
+        self.done += n
+        self._draw()
+
+    def finish(self):
+        if self.enabled and self.label:
+            self.done = self.total
+            self._draw(force=True)
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+        self.label = ""
+
+    def _draw(self, force=False):
+        if not self.enabled:
+            return
+        now = time.monotonic()
+        if not force and now - self.last < 0.1:
+            return
+        self.last = now
+        frac = min(self.done / self.total, 1.0)
+        bar = "#" * int(30 * frac)
+        sys.stderr.write(f"\r{self.label:<10s} [{bar:<30s}] {self.done}/{self.total}")
+        sys.stderr.flush()
+
+
+@dataclass
+class _Cand:
+    sample: int
+    q: np.ndarray
+    pose: np.ndarray
+    quality: float
+    votes: int
+    start_pose: Optional[np.ndarray] = None
+    start_dofs: Optional[np.ndarray] = None
+    backoff: float = 0.0
+    search: Optional[list] = None
+    settled: str = ""
+    evaluation: object = None
+
+
+def _as_mesh(value, name):
+    if isinstance(value, _core.Mesh):
+        return value
+    if isinstance(value, (str, os.PathLike)):
+        return _core.load_mesh(os.fspath(value))
+    raise ValueError(f"{name}: expected a Mesh or a mesh file path, got {type(value).__name__}")
+
+
+class Planner:
+    """Plans grasps of one hand on one target.
+
+    Args:
+        hand: a :class:`pairgrasp.Hand` or the path of a hand spec.
+        target: a :class:`pairgrasp.Mesh` or the path of a mesh (metres).
+        paint: free-face mask: a paint file path or an (F,) bool array (None: every face free).
+        occluders: meshes (or paths) in the target frame; faces within ``occluder_distance`` of one
+            are occluded.
+        viewpoints: (V,3) points (m); only faces seen from one of them stay free.
+        obstacles: meshes (or paths) the hand must not touch (a table, the hand holding the target).
+        params: :class:`PlanParams`; keyword arguments override its fields.
+
+    The target index, aligner and grasp checker are built once, in the constructor; :meth:`plan`
+    may be called again with other schedules (``plan(schedule="grid")``).
+
+    Raises:
+        ValueError: bad parameters, an empty free set, a pair budget the target exceeds.
+        pairgrasp.FileError: unreadable files.
+    """
+
+    def __init__(self, hand, target, paint=None, occluders=(), viewpoints=None, obstacles=(),
+                 params: Optional[PlanParams] = None, occluder_distance: float = 0.005, **overrides):
+        t0 = time.perf_counter()
+        self.params = PlanParams(**asdict(params)) if params is not None else PlanParams()
+        for k, v in overrides.items():
+            if k not in {f.name for f in fields(PlanParams)}:
+                raise ValueError(f"unknown planner parameter {k!r}")
+            setattr(self.params, k, v)
+        self.params.validate()
+        p = self.params
+        self.hand = hand if isinstance(hand, _core.Hand) else _core.load_hand(os.fspath(hand))
+        self.target = _as_mesh(target, "target")
+        self.inputs = {"hand": self.hand.name, "hand_spec": os.fspath(hand) if not isinstance(hand, _core.Hand)
+                       else self.hand.spec_path,
+                       "target": os.fspath(target) if not isinstance(target, _core.Mesh) else "<mesh>",
+                       "target_faces": int(len(self.target.faces))}
+        free = self._free_mask(paint, occluders, viewpoints, occluder_distance)
+        self.free = free
+        self.obstacles = [_as_mesh(o, "obstacle") for o in obstacles]
+        if obstacles:
+            self.inputs["obstacles"] = [os.fspath(o) if not isinstance(o, _core.Mesh) else "<mesh>" for o in obstacles]
+        self.inputs["free_faces"] = int(free.sum())
+        self.center, self.radius = torque_reference(self.target)
+
+        self.mode = self._constellation_mode()
+        lo = np.asarray(self.hand.dof_lower, float)
+        hi = np.asarray(self.hand.dof_upper, float)
+        mid = (lo + hi) / 2
+        extent = np.ptp(np.asarray(self.target.bounds, float), axis=0)
+        d_max = p.d_max if p.d_max is not None else None
+        if p.edge is not None:
+            edge = float(p.edge)
+        else:
+            edge = min(0.005, float(extent.min()) / 15.0) if extent.min() > 0 else 0.005
+        if d_max is None:
+            d_max = self._hand_span(lo, hi, edge) + edge
+        if p.edge is None:
+            budget_edge = _core.suggest_edge(self.target, d_max, int(p.max_pairs), free)
+            edge = max(edge, budget_edge)
+        self.edge, self.d_max = float(edge), float(d_max)
+        self.spacing = None
+        if self.mode == "area":
+            self.spacing = float(p.spacing) if p.spacing is not None else self._area_spacing(mid)
+        self.tindex = _core.build_target_index(self.target, edge=self.edge, d_max=self.d_max, free=free,
+                                               max_pairs=int(p.max_pairs), threads=p.threads)
+        self.aligner = _core.Aligner(self.tindex.index, max_poses=max(p.poses_per_sample, 1), threads=p.threads)
+        depth_tol = p.depth_tolerance if p.depth_tolerance is not None else self.edge / 4.0
+        self.checker = _core.GraspChecker(self.hand, self.target, free=free, obstacles=self.obstacles,
+                                          depth_tolerance=depth_tol, gap=p.gap, threads=p.threads)
+        reach = self._reach(lo, hi)
+        self.backoff = float(p.backoff) if p.backoff is not None else reach / 2.0
+        self.approach = np.asarray(self.hand.approach, float).reshape(3)
+        self.setup_time = time.perf_counter() - t0
+
+    # ---------------------------------------------------------------- set-up helpers
+
+    def _free_mask(self, paint, occluders, viewpoints, occluder_distance) -> np.ndarray:
+        mesh = self.target
+        free = None
+        if paint is not None:
+            if isinstance(paint, (str, os.PathLike)):
+                free = np.asarray(_core.load_paint(os.fspath(paint), mesh), bool)
+                self.inputs["paint"] = os.fspath(paint)
+            else:
+                free = np.asarray(paint)
+                if free.dtype != bool or free.shape != (len(mesh.faces),):
+                    raise ValueError(f"paint: expected a ({len(mesh.faces)},) bool mask or a paint file, "
+                                     f"got {free.dtype} array of shape {free.shape}")
+                if not free.any():
+                    raise ValueError("paint: no free face left (the mask is all False)")
+        occ = [_as_mesh(o, "occluder") for o in occluders]
+        if occ:
+            self.inputs["occluders"] = [os.fspath(o) if not isinstance(o, _core.Mesh) else "<mesh>" for o in occluders]
+            free = _core.occluded_by(mesh, occ, occluder_distance, free)
+        if viewpoints is not None:
+            vp = np.asarray(viewpoints, float).reshape(-1, 3)
+            self.inputs["viewpoints"] = _round(vp)
+            free = _core.visible_from(mesh, vp, free, occ)
+        if free is None:
+            free = np.ones(len(mesh.faces), bool)
+        return np.asarray(free, bool)
+
+    def _constellation_mode(self) -> str:
+        if self.params.constellation != "auto":
+            return self.params.constellation
+        lo = np.asarray(self.hand.dof_lower, float)
+        hi = np.asarray(self.hand.dof_upper, float)
+        c = self.hand.constellation((lo + hi) / 2, mode="per_link")
+        pts, nrm = np.asarray(c.points), np.asarray(c.normals)
+        if len(pts) < 3:
+            return "area"
+        for i, j in itertools.combinations(range(len(pts)), 2):
+            d = pts[j] - pts[i]
+            n = np.linalg.norm(d)
+            if n < 1e-9:
+                continue
+            d /= n
+            if abs(nrm[i] @ d) < 0.95 or abs(nrm[j] @ d) < 0.95:
+                return "per_link"  # some pair determines its roll
+        return "area"
+
+    def _corner_samples(self, lo, hi):
+        vals = [np.unique([a, (a + b) / 2, b]) for a, b in zip(lo, hi)]
+        return [np.array(q) for q in itertools.product(*vals)]
+
+    def _hand_span(self, lo, hi, edge) -> float:
+        span = 0.0
+        for q in self._corner_samples(lo, hi):
+            pts = np.asarray(self.hand.constellation(q, mode="per_link").points)
+            if self.mode == "area":
+                pts = np.asarray(self.hand.constellation(q, mode="area", spacing=max(edge, 0.005)).points)
+            if len(pts) > 1:
+                diff = pts[:, None, :] - pts[None, :, :]
+                span = max(span, float(np.sqrt((diff ** 2).sum(-1)).max()))
+        if span <= 0.0:
+            raise ValueError(f"hand {self.hand.name}: its active surfaces give no two distinct samples")
+        return span
+
+    def _reach(self, lo, hi) -> float:
+        reach = 0.0
+        for q in self._corner_samples(lo, hi):
+            pts = np.asarray(self.hand.constellation(q, mode="per_link").points)
+            if len(pts):
+                reach = max(reach, float(np.linalg.norm(pts, axis=1).max()))
+        return reach
+
+    def _area_spacing(self, mid) -> float:
+        s = self.edge
+        for _ in range(40):
+            n = len(self.hand.constellation(mid, mode="area", spacing=s).points)
+            if n <= self.params.max_area_samples:
+                return s
+            s *= 1.25
+        return s
+
+    # ---------------------------------------------------------------- scheduling
+
+    def steps(self, step: Optional[float] = None) -> np.ndarray:
+        """Per-DOF sampling step: ``step`` for angular DOFs (None: the hand's), the hand's for linear ones."""
+        out = []
+        for dof in self.hand.dofs:
+            out.append(float(dof.step) if (step is None or dof.linear) else float(step))
+        return np.array(out)
+
+    def constellation(self, q):
+        if self.mode == "area":
+            return self.hand.constellation(q, mode="area", spacing=self.spacing)
+        return self.hand.constellation(q, mode="per_link")
+
+    def match_fraction(self, q) -> float:
+        """Fraction of the gripper pairs at DOF sample ``q`` whose feature (normals flipped) matches at
+        least one target pair within the aligner's tolerance box: the early-rejection score."""
+        c = self.constellation(q)
+        pts, nrm = np.asarray(c.points), -np.asarray(c.normals)
+        if len(pts) < 2:
+            return 0.0
+        i, j = np.triu_indices(len(pts), 1)
+        feats = np.asarray(_core.pair_feature(pts[i], nrm[i], pts[j], nrm[j]))
+        keep = feats[:, 0] <= self.d_max
+        if not keep.any():
+            return 0.0
+        counts = np.asarray(self.tindex.index.count(feats[keep], np.asarray(self.aligner.tolerance, float)))
+        return float((counts > 0).sum()) / float(len(feats))
+
+    # ---------------------------------------------------------------- pipeline
+
+    def plan(self, progress: Optional[bool] = None, **overrides) -> PlanResult:
+        """Runs the schedule and returns the ranked grasps. ``overrides`` change plan-time fields of
+        the parameters (schedule, step, poses_per_sample, ..., not the ones the constructor used:
+        edge, d_max, max_pairs, constellation, spacing, depth_tolerance, gap)."""
+        p = PlanParams(**asdict(self.params))
+        fixed = {"edge", "d_max", "max_pairs", "constellation", "spacing", "depth_tolerance", "gap",
+                 "max_area_samples", "threads"}
+        for k, v in overrides.items():
+            if k not in {f.name for f in fields(PlanParams)}:
+                raise ValueError(f"unknown planner parameter {k!r}")
+            if k in fixed and v != getattr(p, k):
+                raise ValueError(f"{k}: fixed when the Planner is built; build a new Planner to change it")
+            setattr(p, k, v)
+        p.validate()
+        bar = _Progress(progress)
+        timings = {"index": self.setup_time}
+        counts = {"unit_facets": int(len(self.tindex.facets.points)), "stored_pairs": int(len(self.tindex.index.pairs)),
+                  "samples": 0, "rejected": 0, "aligned_samples": 0, "aligned_poses": 0, "settled": 0,
+                  "settled_aligned": 0, "evaluated": 0, "force_closure": 0}
+        lo = np.asarray(self.hand.dof_lower, float)
+        hi = np.asarray(self.hand.dof_upper, float)
+        steps = self.steps(p.step)
+        axes = dof_grid(lo, hi, steps)
+        reject = p.reject if p.reject is not None else (p.schedule == "fast")
+
+        samples: List[np.ndarray] = []
+        cands: List[_Cand] = []
+        seen: set = set()
+        stage_t = {"schedule": 0.0, "align": 0.0, "settle": 0.0, "evaluate": 0.0}
+
+        best_fraction = [None]
+
+        def run_stage(index_tuples):
+            t = time.perf_counter()
+            qs = [np.array([axes[d][k] for d, k in enumerate(idx)]) for idx in index_tuples]
+            counts["samples"] += len(qs)
+            keep = [True] * len(qs)
+            if reject:
+                bar.start("schedule", len(qs))
+                fractions = []
+                for q in qs:
+                    fractions.append(self.match_fraction(q))
+                    bar.advance()
+                bar.finish()
+                if best_fraction[0] is None:  # the first stage (the whole grid, or fast's coarse grid)
+                    best_fraction[0] = max(fractions, default=0.0)
+                threshold = p.min_match_fraction * best_fraction[0]
+                keep = [f >= threshold and f > 0.0 for f in fractions]
+            kept = [q for q, k in zip(qs, keep) if k]
+            counts["rejected"] += len(qs) - len(kept)
+            stage_t["schedule"] += time.perf_counter() - t
+            t = time.perf_counter()
+            new = self._align(kept, samples, p, bar)
+            counts["aligned_samples"] += len(kept)
+            counts["aligned_poses"] += len(new)
+            stage_t["align"] += time.perf_counter() - t
+            t = time.perf_counter()
+            settled = self._settle(new, bar)
+            counts["settled"] += len(settled)
+            counts["settled_aligned"] += sum(c.settled == "aligned" for c in settled)
+            stage_t["settle"] += time.perf_counter() - t
+            t = time.perf_counter()
+            done = self._evaluate(settled, len(cands), seen, p, bar)
+            counts["evaluated"] += len(done)
+            stage_t["evaluate"] += time.perf_counter() - t
+            cands.extend(done)
+            return done
+
+        shape = [len(a) for a in axes]
+        if p.schedule == "grid":
+            run_stage(list(itertools.product(*[range(n) for n in shape])))
+        else:
+            f = p.coarse_factor
+            coarse_axes = [sorted(set(list(range(0, n, f)) + [n - 1])) for n in shape]
+            coarse = list(itertools.product(*coarse_axes))
+            done = run_stage(coarse)
+            # Seeds: coarse samples ranked by their best candidate (force closure, epsilon, Q_A).
+            best: Dict[int, tuple] = {}
+            for c in done:
+                e = c.evaluation
+                key = (bool(e.force_closure), float(e.epsilon), c.quality)
+                if c.sample not in best or key > best[c.sample]:
+                    best[c.sample] = key
+            order = sorted(best, key=lambda s: (best[s], -s), reverse=True)[: p.refine]
+            seen = set(coarse)
+            fine: List[tuple] = []
+            r = max(f // 2, 1)
+            for s in order:
+                centre = tuple(int(np.argmin(np.abs(axes[d] - samples[s][d]))) for d in range(len(axes)))
+                for off in itertools.product(*[range(-r, r + 1)] * len(axes)):
+                    idx = tuple(min(max(c + o, 0), n - 1) for c, o, n in zip(centre, off, shape))
+                    if idx not in seen:
+                        seen.add(idx)
+                        fine.append(idx)
+            if fine:
+                run_stage(fine)
+        timings.update(stage_t)
+
+        t = time.perf_counter()
+        grasps = self._rank_and_tune(cands, p, bar)
+        timings["fine_tune"] = time.perf_counter() - t
+        counts["force_closure"] = sum(1 for c in cands if c.evaluation.force_closure)
+        timings["total"] = sum(timings.values())
+        records = [Candidate(sample=c.sample, alignment_quality=c.quality, votes=c.votes,
+                             epsilon=float(c.evaluation.epsilon), force_closure=bool(c.evaluation.force_closure),
+                             settled=c.settled) for c in cands]
+        return PlanResult(grasps=grasps, candidates=records, timings=timings, counts=counts, edge=self.edge,
+                          d_max=self.d_max, constellation=self.mode, spacing=self.spacing, params=p,
+                          inputs=dict(self.inputs))
+
+    def _align(self, qs, samples, p, bar) -> List[_Cand]:
+        out: List[_Cand] = []
+        batch = 64
+        bar.start("align", len(qs))
+        for b in range(0, len(qs), batch):
+            chunk = qs[b:b + batch]
+            cons = [self.constellation(q) for q in chunk]
+            res = self.aligner.align_many(cons)
+            for q, poses in zip(chunk, res):
+                samples.append(q)
+                s = len(samples) - 1
+                for pose in poses[: p.poses_per_sample]:
+                    out.append(_Cand(sample=s, q=q, pose=np.array(pose.pose), quality=float(pose.quality),
+                                     votes=int(pose.votes)))
+            bar.advance(len(chunk))
+        bar.finish()
+        return out
+
+    def _open_dofs(self, q) -> np.ndarray:
+        """``q`` with its closing DOFs at their open limit."""
+        dirs = np.asarray(_core.closing_directions(self.hand, q)).reshape(-1)
+        out = np.array(q, float)
+        out[dirs > 0] = np.asarray(self.hand.dof_lower, float)[dirs > 0]
+        out[dirs < 0] = np.asarray(self.hand.dof_upper, float)[dirs < 0]
+        return out
+
+    def _settle(self, cands: List[_Cand], bar) -> List[_Cand]:
+        if not cands:
+            return []
+        bar.start("settle", len(cands))
+        poses = np.array([c.pose for c in cands])
+        dofs = np.array([c.q for c in cands])
+        first = self.checker.check_many(poses, dofs)
+        active = []
+        for c, r in zip(cands, first):
+            if not r.pruned:
+                c.start_pose, c.start_dofs, c.settled = c.pose, c.q, "aligned"
+            else:
+                active.append((c, float(r.depth)))
+        # Like GraspIt's approach: the closing DOFs open, the wrist backs off along the approach axis
+        # until clear; the fingers close onto contact in the evaluation. (Keeping the sample's DOFs
+        # or opening them half-way first was tried: on the bundled targets it doubled the settle
+        # time and found no better grasp, since curled fingers hook the target when backing off.)
+        for c, _ in active:
+            c.start_dofs = self._open_dofs(c.q)
+        self._back_off(active)
+        bar.advance(len(cands))
+        bar.finish()
+        return [c for c in cands if c.settled]
+
+    def _back_off(self, active):
+        """Exponential search along the approach axis (each pruned distance at least doubles, or grows
+        by the reported depth), then bisection down to h/2 between the last pruned and the first
+        clear distance: ~log2(backoff/h) checks for a candidate that never clears. Returns the
+        candidates that did not clear, with their depth at the aligned pose."""
+        resolution = self.edge / 2.0
+        failed = []
+        state = []
+        for c, depth in active:
+            c.search = [0.0, None]
+            c.backoff = min(max(depth, self.edge / 2.0) + self.edge / 4.0, self.backoff)
+            state.append((c, depth))
+        while state:
+            poses = np.array([self._backed(c.pose, c.backoff) for c, _ in state])
+            res = self.checker.check_many(poses, np.array([c.start_dofs for c, _ in state]))
+            nxt = []
+            for (c, depth0), pose, r in zip(state, poses, res):
+                lo, hi = c.search
+                d = c.backoff
+                if r.pruned:
+                    lo = d
+                    if hi is None:
+                        if d >= self.backoff - 1e-12:
+                            failed.append((c, depth0))  # never clears within the back-off
+                            continue
+                        d = min(max(2.0 * d, d + float(r.depth) + self.edge / 4.0), self.backoff)
+                else:
+                    hi = d
+                    c.settled = "backed_off"
+                c.search = [lo, hi]
+                if hi is not None:
+                    if hi - lo <= resolution:
+                        c.backoff = hi
+                        c.start_pose = self._backed(c.pose, hi)
+                        continue
+                    d = (lo + hi) / 2.0
+                c.backoff = d
+                nxt.append((c, depth0))
+            state = nxt
+        for c, _ in failed:
+            c.backoff = 0.0
+        return failed
+
+    def _backed(self, pose, distance) -> np.ndarray:
+        out = pose.copy()
+        out[:3, 3] -= distance * (pose[:3, :3] @ self.approach)
+        return out
+
+    def _dedupe_key(self, c: _Cand, steps) -> tuple:
+        T = c.start_pose
+        pos = tuple(np.floor(T[:3, 3] / self.edge + 0.5).astype(int))
+        ang = 0.05  # ~3 degrees on the unit axes
+        rot = tuple(np.floor(T[:3, :2].T.reshape(-1) / ang + 0.5).astype(int))
+        half = np.where(steps > 0, steps / 2.0, 1.0)
+        dof = tuple(np.floor(c.start_dofs / half + 0.5).astype(int))
+        return pos + rot + dof
+
+    def _evaluate(self, settled: List[_Cand], n_before: int, seen: set, p, bar) -> List[_Cand]:
+        steps = self.steps(p.step)
+        order = sorted(range(len(settled)), key=lambda k: (-settled[k].quality, k))
+        todo = []
+        for k in order:
+            c = settled[k]
+            key = self._dedupe_key(c, steps)
+            if key in seen:
+                continue
+            seen.add(key)
+            todo.append(c)
+        if p.max_evaluations is not None:
+            room = p.max_evaluations - n_before
+            todo = todo[: max(room, 0)]
+        bar.start("evaluate", len(todo))
+
+        def one(c):
+            return evaluate_grasp(self.checker, c.start_pose, c.start_dofs, center=self.center, radius=self.radius,
+                                  mu=p.mu, edges=p.edges, contacts_per_link=p.contacts_per_link)
+
+        workers = p.threads or (os.cpu_count() or 1)
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            for c, ev in zip(todo, pool.map(one, todo)):
+                c.evaluation = ev
+                bar.advance()
+        bar.finish()
+        return todo
+
+    def _rank_and_tune(self, cands: List[_Cand], p, bar) -> List[Grasp]:
+        def key(c):
+            e = c.evaluation
+            return (not e.pruned, bool(e.force_closure), float(e.epsilon), c.quality, c.votes)
+
+        kept = [c for c in cands if not c.evaluation.pruned]
+        kept.sort(key=key, reverse=True)
+        steps = self.steps(p.step)
+        tuned = []
+        n_tune = min(p.fine_tune, len(kept))
+        bar.start("fine-tune", n_tune)
+        for k, c in enumerate(kept[:n_tune]):
+            ft = fine_tune(self.checker, c.start_pose, c.start_dofs, step=steps, facet_size=self.edge,
+                           iterations=p.fine_tune_iterations, seed=p.seed + k, center=self.center,
+                           radius=self.radius, mu=p.mu, edges=p.edges, contacts_per_link=p.contacts_per_link)
+            ev = ft.best if ft.best is not None else c.evaluation
+            tuned.append((c, ev, bool(ft.improved)))
+            bar.advance()
+        bar.finish()
+        tuned += [(c, c.evaluation, False) for c in kept[n_tune:]]
+        tuned.sort(key=lambda t: (bool(t[1].force_closure), float(t[1].epsilon), t[0].quality, t[0].votes),
+                   reverse=True)
+        chosen = []
+        seen = set()
+        for c, ev, improved in tuned:
+            sig = (tuple(np.round(ev.wrist_pose[:3, 3] / self.edge).astype(int)),
+                   tuple(np.round(ev.dofs / np.where(steps > 0, steps / 2, 1.0)).astype(int)))
+            if sig in seen:
+                continue
+            seen.add(sig)
+            chosen.append((c, ev, improved))
+            if len(chosen) >= p.top:
+                break
+
+        def full(item):
+            ev = item[1]
+            if p.contacts_per_link is None or not len(ev.contact_points):
+                return ev.epsilon, ev.volume, ev.force_closure
+            gq = grasp_quality(ev.contact_points, ev.contact_normals, self.center, self.radius, mu=p.mu,
+                               edges=p.edges)
+            return float(gq.epsilon), float(gq.volume), bool(gq.force_closure)
+
+        workers = p.threads or (os.cpu_count() or 1)
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            scores = list(pool.map(full, chosen))
+        order = sorted(range(len(chosen)), key=lambda i: (scores[i][2], scores[i][0], chosen[i][0].quality,
+                                                          chosen[i][0].votes, -i), reverse=True)
+        grasps: List[Grasp] = []
+        for i in order:
+            c, ev, improved = chosen[i]
+            eps, vol, fc = scores[i]
+            joints = {k: float(v) for k, v in self.hand.joint_values(ev.dofs, clamp=True).items()}
+            grasps.append(Grasp(
+                rank=len(grasps) + 1, wrist_pose=np.array(ev.wrist_pose), dofs=np.array(ev.dofs), joints=joints,
+                epsilon=eps, volume=vol, force_closure=fc,
+                alignment_quality=c.quality, votes=c.votes, penetration_depth=float(ev.depth),
+                contact_points=np.array(ev.contact_points), contact_normals=np.array(ev.contact_normals),
+                contact_links=tuple(ev.contact_links), sample=c.q.copy(), aligned_pose=c.pose.copy(),
+                backoff=float(c.backoff), fine_tuned=improved))
+        return grasps

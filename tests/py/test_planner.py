@@ -1,0 +1,209 @@
+"""The planner: DOF grids, early rejection, settling, the whole pipeline on small cases, determinism,
+parameter errors, contact reduction and the MDS projection of Figure 7."""
+import dataclasses
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+import pairgrasp as pg
+from pairgrasp.render import classical_mds
+
+MODELS = pathlib.Path(__file__).resolve().parents[2] / "models"
+JAW = MODELS / "parallel_jaw" / "parallel_jaw.json"
+BARRETT = MODELS / "barrett" / "barrett.json"
+BOX = MODELS / "targets" / "box.stl"
+BOX_PAINT = MODELS / "targets" / "box.paint.json"
+
+
+# ----------------------------------------------------------------------------- DOF grid
+
+def test_dof_grid_values():
+    axes = pg.dof_grid([0.0, 0.0, 1.0], [1.0, 0.5, 1.0], [0.25, 0.2, 0.1])
+    np.testing.assert_allclose(axes[0], [0.0, 0.25, 0.5, 0.75, 1.0])
+    np.testing.assert_allclose(axes[1], [0.0, 0.2, 0.4, 0.5])  # last step shorter, upper limit kept
+    np.testing.assert_allclose(axes[2], [1.0])  # a fixed DOF has one value
+
+
+def test_grid_schedule_counts_every_sample():
+    # The paper's grid: the Barrett hand at 0.25 rad has ceil(pi/0.25)+1 spread values and
+    # ceil(2.44/0.25)+1 values per finger.
+    hand = pg.load_hand(str(BARRETT))
+    axes = pg.dof_grid(hand.dof_lower, hand.dof_upper, [0.25] * 4)
+    n_spread = math.ceil(math.pi / 0.25) + 1
+    n_flex = math.ceil(2.44 / 0.25) + 1
+    assert [len(a) for a in axes] == [n_spread, n_flex, n_flex, n_flex]
+
+
+# ----------------------------------------------------------------------------- jaw on a box
+
+@pytest.fixture(scope="module")
+def jaw_planner():
+    return pg.Planner(str(JAW), str(BOX), paint=str(BOX_PAINT), edge=0.008, top=3, seed=1, fine_tune=2,
+                      fine_tune_iterations=6, poses_per_sample=3)
+
+
+@pytest.fixture(scope="module")
+def jaw_result(jaw_planner):
+    return jaw_planner.plan(progress=False)
+
+
+def test_jaw_box_antipodal_force_closure(jaw_planner, jaw_result):
+    """A parallel jaw on a box: the best grasp is force-closure, its contacts lie on two opposite
+    faces of the box (|coordinate| = half extent along one axis within the contact gap of 1 mm,
+    normals antiparallel)."""
+    g = jaw_result.grasps[0]
+    assert g.force_closure and g.epsilon > 0
+    lo, hi = np.asarray(jaw_planner.target.bounds)
+    half = (hi - lo) / 2
+    centre = (hi + lo) / 2
+    n = g.contact_normals
+    axis = int(np.argmax(np.abs(n).sum(axis=0)))
+    assert np.all(np.abs(np.abs(n[:, axis]) - 1.0) < 1e-6), "contact normals are not a box face's"
+    assert (n[:, axis] > 0).any() and (n[:, axis] < 0).any(), "contacts on one face only"
+    np.testing.assert_allclose(np.abs(g.contact_points[:, axis] - centre[axis]), half[axis], atol=1e-3 + 1e-6)
+    assert set(g.contact_links) == {"pj_left_finger", "pj_right_finger"}
+
+
+def test_grasps_are_rigid_ranked_and_not_penetrating(jaw_planner, jaw_result):
+    tol = jaw_planner.edge / 4
+    eps = [g.epsilon for g in jaw_result.grasps]
+    fc = [g.force_closure for g in jaw_result.grasps]
+    assert fc == sorted(fc, reverse=True)
+    for g in jaw_result.grasps:
+        R = g.wrist_pose[:3, :3]
+        np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-9)
+        assert np.linalg.det(R) > 0
+        assert g.penetration_depth <= tol + 1e-9
+        lo, hi = np.asarray(jaw_planner.hand.dof_lower), np.asarray(jaw_planner.hand.dof_upper)
+        assert np.all(g.dofs >= lo - 1e-12) and np.all(g.dofs <= hi + 1e-12)
+    fc_eps = [e for e, f in zip(eps, fc) if f]
+    assert fc_eps == sorted(fc_eps, reverse=True)
+
+
+def test_reported_epsilon_uses_every_contact(jaw_planner, jaw_result):
+    """The returned epsilon is the quality of all the grasp's contacts, not the reduced set."""
+    g = jaw_result.grasps[0]
+    q = pg.grasp_quality(g.contact_points, g.contact_normals, jaw_planner.center, jaw_planner.radius)
+    assert q.epsilon == pytest.approx(g.epsilon, rel=1e-9)
+
+
+def test_settled_pose_is_the_aligned_pose_backed_off(jaw_planner, jaw_result):
+    """Unless fine-tuned, a grasp's wrist is its aligned pose moved back along the approach axis by
+    the reported back-off, and the fingers opened there do not penetrate."""
+    approach = np.asarray(jaw_planner.hand.approach, float).reshape(3)
+    for g in jaw_result.grasps:
+        if g.fine_tuned:
+            continue
+        expect = g.aligned_pose[:3, 3] - g.backoff * (g.aligned_pose[:3, :3] @ approach)
+        np.testing.assert_allclose(g.wrist_pose[:3, 3], expect, atol=1e-9)
+        np.testing.assert_allclose(g.wrist_pose[:3, :3], g.aligned_pose[:3, :3], atol=1e-12)
+
+
+def test_counts_and_timings(jaw_result):
+    c = jaw_result.counts
+    assert c["samples"] == c["rejected"] + c["aligned_samples"]
+    assert c["evaluated"] <= c["settled"] <= c["aligned_poses"]
+    assert len(jaw_result.candidates) == c["evaluated"]
+    for stage in ("index", "schedule", "align", "settle", "evaluate", "fine_tune", "total"):
+        assert jaw_result.timings[stage] >= 0
+    assert jaw_result.constellation == "area"  # the jaw's per-link pair is antipodal
+
+
+def test_deterministic_for_a_seed(jaw_planner, jaw_result):
+    again = jaw_planner.plan(progress=False)
+    a, b = jaw_result.to_dict(), again.to_dict()
+    a.pop("timings"), b.pop("timings")
+    assert a == b
+
+
+def test_grid_schedule_runs_every_sample(jaw_planner):
+    r = jaw_planner.plan(schedule="grid", progress=False, fine_tune=0)
+    n = len(pg.dof_grid(jaw_planner.hand.dof_lower, jaw_planner.hand.dof_upper, jaw_planner.hand.dof_step)[0])
+    assert r.counts["samples"] == n and r.counts["rejected"] == 0
+
+
+# ----------------------------------------------------------------------------- early rejection
+
+def test_match_fraction_equals_brute_force(jaw_planner):
+    """The early-rejection score counts the gripper pairs with at least one target pair inside the
+    aligner's tolerance box: the same as scanning every stored feature."""
+    feats_t = np.asarray(jaw_planner.tindex.index.features, float)
+    tol = np.asarray(jaw_planner.aligner.tolerance, float)
+    for q in (jaw_planner.hand.dof_lower, jaw_planner.hand.dof_upper):
+        q = np.asarray(q, float)
+        c = jaw_planner.constellation(q)
+        pts, nrm = np.asarray(c.points), -np.asarray(c.normals)
+        i, j = np.triu_indices(len(pts), 1)
+        f = np.asarray(pg.pair_feature(pts[i], nrm[i], pts[j], nrm[j]))
+        hit = [np.any(np.all(np.abs(feats_t - x) <= tol, axis=1)) for x in f]
+        assert jaw_planner.match_fraction(q) == pytest.approx(sum(hit) / len(f), abs=1e-12)
+
+
+# ----------------------------------------------------------------------------- errors
+
+@pytest.mark.parametrize("field, value", [
+    ("schedule", "random"), ("step", -0.1), ("step", float("nan")), ("top", 0), ("min_match_fraction", 1.5),
+    ("constellation", "hull"), ("poses_per_sample", 0), ("contacts_per_link", 0), ("edge", 0.0),
+])
+def test_bad_parameters_name_the_field(field, value):
+    p = dataclasses.replace(pg.PlanParams(), **{field: value})
+    with pytest.raises(ValueError, match=field):
+        p.validate()
+
+
+def test_bad_planner_inputs():
+    with pytest.raises(ValueError, match="unknown planner parameter"):
+        pg.Planner(str(JAW), str(BOX), frobnicate=1)
+    mesh = pg.load_mesh(str(BOX))
+    with pytest.raises(ValueError, match="paint"):
+        pg.Planner(str(JAW), mesh, paint=np.zeros(len(mesh.faces), bool))
+    with pytest.raises(ValueError, match="paint"):
+        pg.Planner(str(JAW), mesh, paint=np.ones(3, bool))
+    with pytest.raises(pg.FileError, match="nope.stl"):
+        pg.Planner(str(JAW), "nope.stl")
+
+
+def test_plan_time_fields_cannot_change_the_index(jaw_planner):
+    with pytest.raises(ValueError, match="edge"):
+        jaw_planner.plan(edge=0.002)
+
+
+# ----------------------------------------------------------------------------- contact reduction
+
+def test_reduce_contacts_keeps_extremes():
+    pts = np.stack([np.linspace(0, 1, 11), np.zeros(11), np.zeros(11)], axis=1)
+    keep = pg.reduce_contacts(pts, ["a"] * 11, 2)
+    assert sorted(keep.tolist()) == [0, 10]
+    keep = pg.reduce_contacts(pts, ["a"] * 5 + ["b"] * 6, 1)
+    assert len(keep) == 2
+    with pytest.raises(ValueError, match="per_link"):
+        pg.reduce_contacts(pts, ["a"] * 11, 0)
+
+
+def test_reduced_epsilon_is_a_lower_bound():
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        n = 24
+        normals = rng.normal(size=(n, 3))
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        points = normals * 0.05 + rng.normal(scale=0.002, size=(n, 3))
+        links = [f"l{k % 4}" for k in range(n)]
+        full = pg.grasp_quality(points, normals, np.zeros(3), 0.05)
+        k = pg.reduce_contacts(points, links, 3)
+        part = pg.grasp_quality(points[k], normals[k], np.zeros(3), 0.05)
+        assert part.epsilon <= full.epsilon + 1e-12
+        assert not part.force_closure or full.force_closure
+
+
+# ----------------------------------------------------------------------------- Figure 7's projection
+
+def test_classical_mds_preserves_planar_distances():
+    rng = np.random.default_rng(0)
+    plane = rng.normal(size=(30, 2))
+    basis, _ = np.linalg.qr(rng.normal(size=(4, 2)))
+    x = plane @ basis.T + rng.normal(size=4)
+    y = classical_mds(x, 2)
+    d = lambda a: np.sqrt(((a[:, None] - a[None]) ** 2).sum(-1))  # noqa: E731
+    np.testing.assert_allclose(d(y), d(plane), atol=1e-8)
