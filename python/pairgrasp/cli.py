@@ -5,7 +5,12 @@ Every failure prints one line `pairgrasp: error: ...` on stderr and exits with a
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import shutil
 import sys
+import tempfile
+import time
 
 import numpy as np
 
@@ -53,6 +58,176 @@ def _cmd_info(args) -> int:
     return 0
 
 
+def _write_json(path: str, doc: dict):
+    tmp = f"{path}.part"
+    with open(tmp, "w", encoding="utf-8") as fh:
+        json.dump(doc, fh, indent=1, sort_keys=False, allow_nan=False)
+        fh.write("\n")
+    os.replace(tmp, path)
+
+
+def _planner_from_args(args, **extra):
+    import pairgrasp as pg
+
+    for name, path in [("--hand", args.hand), ("--target", args.target), ("--paint", args.paint)] + \
+            [("--occluder", o) for o in (args.occluder or [])] + [("--obstacle", o) for o in (args.obstacle or [])]:
+        if path is not None and not os.path.isfile(path):
+            raise ValueError(f"{name}: no such file: {path}")
+    target = pg.load_mesh(args.target, scale=args.scale)
+    params = dict(schedule=args.schedule, step=args.step, top=args.top, seed=args.seed, threads=args.threads)
+    if args.edge is not None:
+        params["edge"] = args.edge
+    params.update(extra)
+    viewpoints = np.asarray(args.viewpoint, float).reshape(-1, 3) if args.viewpoint else None
+    planner = pg.Planner(args.hand, target, paint=args.paint,
+                         occluders=[pg.load_mesh(o, scale=args.scale) for o in (args.occluder or [])],
+                         viewpoints=viewpoints,
+                         obstacles=[pg.load_mesh(o, scale=args.scale) for o in (args.obstacle or [])], **params)
+    planner.inputs["target"] = args.target
+    if args.occluder:
+        planner.inputs["occluders"] = list(args.occluder)
+    if args.obstacle:
+        planner.inputs["obstacles"] = list(args.obstacle)
+    if args.scale != 1.0:
+        planner.inputs["scale"] = args.scale
+    return planner
+
+
+def _table(result) -> str:
+    rows = [f"{'rank':>4s}  {'epsilon':>8s}  {'fc':>3s}  {'Q_A':>8s}  {'votes':>5s}  {'penetration':>11s}  contacts"]
+    for g in result.grasps:
+        rows.append(f"{g.rank:>4d}  {g.epsilon:>8.4f}  {'yes' if g.force_closure else 'no':>3s}  "
+                    f"{g.alignment_quality:>8.3f}  {g.votes:>5d}  {1000 * g.penetration_depth:>8.2f} mm  "
+                    f"{len(g.contact_points)}")
+    return "\n".join(rows)
+
+
+def _finish_outdir(tmpdir: str, outdir: str):
+    """Moves the files written in ``tmpdir`` into ``outdir`` (created if needed), each by rename."""
+    os.makedirs(outdir, exist_ok=True)
+    for name in sorted(os.listdir(tmpdir)):
+        os.replace(os.path.join(tmpdir, name), os.path.join(outdir, name))
+
+
+def _cmd_plan(args) -> int:
+    from . import render
+
+    out = args.output
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise ValueError(f"-o: {out} exists and is not a directory")
+    t0 = time.perf_counter()
+    planner = _planner_from_args(args)
+    result = planner.plan(progress=None if not args.quiet else False)
+    parent = os.path.dirname(os.path.abspath(out))
+    os.makedirs(parent, exist_ok=True)
+    tmpdir = tempfile.mkdtemp(prefix=".pairgrasp-", dir=parent)
+    try:
+        doc = result.to_dict()
+        pictures = []
+        for g in result.grasps[: args.pictures]:
+            name = f"grasp_{g.rank:02d}.png"
+            title = (f"{planner.hand.name} on {os.path.basename(args.target)}: rank {g.rank}, eps {g.epsilon:.4f}"
+                     f"{' (force closure)' if g.force_closure else ''}, Q_A {g.alignment_quality:.2f}")
+            render.draw_grasp(planner.hand, planner.target, planner.free, g.wrist_pose, g.dofs,
+                              os.path.join(tmpdir, name), title=title, contacts=g.contact_points)
+            pictures.append(name)
+        doc["pictures"] = pictures
+        _write_json(os.path.join(tmpdir, "grasps.json"), doc)
+        _finish_outdir(tmpdir, out)
+    finally:
+        shutil.rmtree(tmpdir, ignore_errors=True)
+    c = result.counts
+    print(f"{planner.hand.name} on {args.target}: {c['unit_facets']} unit facets, {c['stored_pairs']} pairs, "
+          f"{c['samples']} DOF samples ({c['rejected']} rejected), {c['evaluated']} candidates evaluated, "
+          f"{c['force_closure']} force-closure")
+    print(_table(result))
+    stages = ", ".join(f"{k} {v:.2f}" for k, v in result.timings.items() if k != "total")
+    print(f"time {time.perf_counter() - t0:.1f} s ({stages} s); wrote {os.path.join(out, 'grasps.json')} and "
+          f"{len(result.grasps[: args.pictures])} pictures")
+    return 0
+
+
+def _cmd_figures(args) -> int:
+    from . import render
+    from .planner import dof_grid
+
+    out = args.output
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise ValueError(f"-o: {out} exists and is not a directory")
+    planner = _planner_from_args(args)
+    result = planner.plan(progress=None if not args.quiet else False)
+    hand = planner.hand
+    lo, hi = np.asarray(hand.dof_lower, float), np.asarray(hand.dof_upper, float)
+    # Figure 7: the best grasp's DOF sample, the mid-range sample and a sample the schedule rejected.
+    samples = []
+    if result.grasps:
+        samples.append(np.asarray(result.grasps[0].sample))
+    samples.append((lo + hi) / 2.0)
+    axes = dof_grid(lo, hi, planner.steps(args.step))
+    rng = np.random.default_rng(args.seed)
+    for _ in range(200):
+        q = np.array([a[rng.integers(len(a))] for a in axes])
+        if planner.match_fraction(q) < planner.params.min_match_fraction:
+            samples.append(q)
+            break
+    samples.append(lo.copy())
+    parent = os.path.dirname(os.path.abspath(out))
+    os.makedirs(parent, exist_ok=True)
+    tmpdir = tempfile.mkdtemp(prefix=".pairgrasp-", dir=parent)
+    name = os.path.splitext(os.path.basename(args.target))[0]
+    try:
+        f7 = render.figure7(planner, samples, os.path.join(tmpdir, f"fig7_{name}.png"), seed=args.seed)
+        f8 = render.figure8(result.candidates, os.path.join(tmpdir, f"fig8_{name}.png"), title=name)
+        _finish_outdir(tmpdir, out)
+    finally:
+        shutil.rmtree(tmpdir, ignore_errors=True)
+    print(f"wrote {os.path.join(out, os.path.basename(f7))} and {os.path.join(out, os.path.basename(f8))}")
+    return 0
+
+
+def _positive_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not np.isfinite(v) or v <= 0:
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return v
+
+
+def _count(low: int):
+    def parse(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if v < low:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {low}, got {text!r}")
+        return v
+    return parse
+
+
+def _add_plan_arguments(p, output_help: str):
+    p.add_argument("--hand", required=True, help="hand spec (JSON)")
+    p.add_argument("--target", required=True, help="target mesh (STL, OBJ, PLY, DAE), metres")
+    p.add_argument("--paint", help="paint file marking the target's free faces")
+    p.add_argument("--occluder", action="append", metavar="MESH",
+                   help="mesh in the target frame occluding the faces near it (repeatable)")
+    p.add_argument("--viewpoint", action="append", nargs=3, type=float, metavar=("X", "Y", "Z"),
+                   help="point (m) from which free faces must be visible (repeatable)")
+    p.add_argument("--obstacle", action="append", metavar="MESH", help="mesh the hand must not touch (repeatable)")
+    p.add_argument("--schedule", choices=("grid", "fast"), default="fast", help="DOF schedule (default fast)")
+    p.add_argument("--step", type=_positive_float, help="DOF sampling step (rad; default the hand's)")
+    p.add_argument("--edge", type=_positive_float, help="unit-facet edge h (m; default automatic)")
+    p.add_argument("--top", type=_count(1), default=10, help="grasps kept (default 10)")
+    p.add_argument("--seed", type=_count(0), default=0, help="seed of the fine-tuning (default 0)")
+    p.add_argument("--threads", type=_count(0), default=0, help="worker threads (default 0: every core)")
+    p.add_argument("--scale", type=_positive_float, default=1.0,
+                   help="scale of the target, occluder and obstacle files (0.001: mm to m)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help=output_help)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="pairgrasp", description="Grasp planning by pairwise-feature alignment.")
     sub = p.add_subparsers(dest="command", parser_class=_Parser)
@@ -64,6 +239,13 @@ def build_parser() -> argparse.ArgumentParser:
     info.add_argument("--scale", type=float, default=1.0, help="scale applied to the target (0.001: mm to m)")
     info.add_argument("--spacing", type=float, default=0.01, help="area-sample spacing (m) for the summary")
     info.set_defaults(func=_cmd_info)
+    plan = sub.add_parser("plan", help="plan grasps; write OUTDIR/grasps.json and pictures of the top grasps")
+    _add_plan_arguments(plan, "output folder (created; grasps.json and grasp_NN.png are replaced)")
+    plan.add_argument("--pictures", type=_count(0), default=5, help="pictures of the best grasps (default 5)")
+    plan.set_defaults(func=_cmd_plan)
+    figs = sub.add_parser("figures", help="plan, then draw the paper's Figures 7 and 8 as PNG files")
+    _add_plan_arguments(figs, "output folder for fig7_<target>.png and fig8_<target>.png")
+    figs.set_defaults(func=_cmd_figures)
     return p
 
 
@@ -74,6 +256,9 @@ def main(argv=None) -> int:
         parser.error("info needs --hand and/or --target")
     try:
         return args.func(args)
+    except KeyboardInterrupt:
+        print("pairgrasp: error: interrupted", file=sys.stderr)
+        return 130
     except (ValueError, RuntimeError, OSError) as e:
         msg = " ".join(str(e).split())
         print(f"pairgrasp: error: {msg}", file=sys.stderr)

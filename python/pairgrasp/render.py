@@ -1,0 +1,185 @@
+"""Pictures: a grasp (hand and target together) and the paper's Figures 7 and 8.
+
+Drawn with matplotlib's Agg backend (no display needed). Lengths in metres; the pictures show
+millimetres.
+"""
+from __future__ import annotations
+
+import os
+from typing import Optional, Sequence
+
+import numpy as np
+
+__all__ = ["draw_grasp", "figure7", "figure8", "classical_mds"]
+
+_FREE = (0.70, 0.74, 0.80)
+_OCCLUDED = (0.93, 0.55, 0.20)
+_HAND = (0.25, 0.35, 0.60)
+_CONTACT = (0.85, 0.10, 0.10)
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _shade(normals: np.ndarray, base, light=(0.3, -0.4, 0.87)) -> np.ndarray:
+    light = np.asarray(light, float) / np.linalg.norm(light)
+    k = 0.45 + 0.55 * np.abs(normals @ light)
+    return np.clip(np.asarray(base, float)[None, :] * k[:, None], 0.0, 1.0)
+
+
+def _tri_normals(tris: np.ndarray) -> np.ndarray:
+    n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    ln = np.linalg.norm(n, axis=1, keepdims=True)
+    return n / np.where(ln > 0, ln, 1.0)
+
+
+def _hand_triangles(hand, wrist_pose: np.ndarray, dofs: np.ndarray):
+    poses = np.asarray(hand.link_poses(np.asarray(dofs, float), clamp=True))
+    out = []
+    for link, T in zip(hand.links, poses):
+        mesh = link.mesh
+        if mesh is None or len(mesh.faces) == 0:
+            continue
+        v = np.asarray(mesh.vertices, float)
+        W = wrist_pose @ T
+        v = v @ W[:3, :3].T + W[:3, 3]
+        out.append(v[np.asarray(mesh.faces, int)])
+    return np.concatenate(out) if out else np.zeros((0, 3, 3))
+
+
+def draw_grasp(hand, target, free: Optional[np.ndarray], wrist_pose, dofs, path: str, title: str = "",
+               contacts: Optional[np.ndarray] = None, views: Sequence[tuple] = ((25, -60), (25, 60))) -> str:
+    """Writes a PNG of the hand at ``wrist_pose`` / ``dofs`` with the target (free faces grey,
+    occluded faces orange) and the contact points (red), from each of ``views`` (elevation,
+    azimuth in degrees). Returns ``path``."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    plt = _pyplot()
+    tv = np.asarray(target.vertices, float)
+    tris = tv[np.asarray(target.faces, int)]
+    free = np.ones(len(tris), bool) if free is None else np.asarray(free, bool)
+    tn = _tri_normals(tris)
+    tcol = np.where(free[:, None], _shade(tn, _FREE), _shade(tn, _OCCLUDED))
+    htris = _hand_triangles(hand, np.asarray(wrist_pose, float), dofs)
+    hcol = _shade(_tri_normals(htris), _HAND) if len(htris) else np.zeros((0, 3))
+    allv = np.concatenate([tris.reshape(-1, 3), htris.reshape(-1, 3)]) * 1000.0
+    lo, hi = allv.min(axis=0), allv.max(axis=0)
+    centre, half = (lo + hi) / 2.0, (hi - lo).max() / 2.0 * 1.02
+    fig = plt.figure(figsize=(5.0 * len(views), 5.0), dpi=100)
+    for k, (elev, azim) in enumerate(views):
+        ax = fig.add_subplot(1, len(views), k + 1, projection="3d")
+        ax.add_collection3d(Poly3DCollection(tris * 1000.0, facecolors=tcol, edgecolors="none", alpha=1.0))
+        if len(htris):
+            ax.add_collection3d(Poly3DCollection(htris * 1000.0, facecolors=hcol, edgecolors=(0.1, 0.1, 0.2, 0.3),
+                                                 linewidths=0.2, alpha=0.85))
+        if contacts is not None and len(contacts):
+            c = np.asarray(contacts, float) * 1000.0
+            ax.scatter(c[:, 0], c[:, 1], c[:, 2], color=_CONTACT, s=6, depthshade=False)
+        for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):
+            setter(c - half, c + half)
+        ax.set_box_aspect((1, 1, 1))
+        ax.view_init(elev=elev, azim=azim)
+        ax.set_xlabel("x (mm)", fontsize=7)
+        ax.set_ylabel("y (mm)", fontsize=7)
+        ax.set_zlabel("z (mm)", fontsize=7)
+        ax.tick_params(labelsize=6)
+    if title:
+        fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    _save(fig, path)
+    plt.close(fig)
+    return path
+
+
+def _save(fig, path: str):
+    """Saves atomically: a partial PNG never appears under ``path``."""
+    tmp = f"{path}.part"
+    fig.savefig(tmp, format="png")
+    os.replace(tmp, path)
+
+
+def classical_mds(points: np.ndarray, dims: int = 2) -> np.ndarray:
+    """Classical (Torgerson) multidimensional scaling of (N,k) points to (N,dims): double-centred
+    squared Euclidean distances, top eigenvectors scaled by the square roots of their eigenvalues.
+    With Euclidean distances this is the projection on the principal axes."""
+    x = np.asarray(points, float)
+    d2 = ((x[:, None, :] - x[None, :, :]) ** 2).sum(-1)
+    n = len(x)
+    j = np.eye(n) - np.ones((n, n)) / n
+    b = -0.5 * j @ d2 @ j
+    w, v = np.linalg.eigh(b)
+    idx = np.argsort(w)[::-1][:dims]
+    return v[:, idx] * np.sqrt(np.clip(w[idx], 0.0, None))
+
+
+def figure7(planner, samples: Sequence[np.ndarray], path: str, max_target: int = 1500, seed: int = 0) -> str:
+    """The paper's Figure 7: target pair features and the gripper's pair features for several DOF
+    samples, projected to 2-D by classical MDS. Features are scaled per coordinate (d by d_max, the
+    angles by pi) so that the projection weighs distance and angles alike."""
+    from . import _core
+
+    plt = _pyplot()
+    pairs = np.asarray(planner.tindex.index.features, float)
+    rng = np.random.default_rng(seed)
+    if len(pairs) > max_target:
+        pairs = pairs[rng.choice(len(pairs), max_target, replace=False)]
+    scale = np.array([planner.d_max, np.pi, np.pi, np.pi])
+    groups = []
+    for q in samples:
+        c = planner.constellation(q)
+        pts, nrm = np.asarray(c.points), -np.asarray(c.normals)
+        i, j = np.triu_indices(len(pts), 1)
+        f = np.asarray(_core.pair_feature(pts[i], nrm[i], pts[j], nrm[j]), float)
+        groups.append(f)
+    allf = np.concatenate([pairs] + groups) / scale
+    y = classical_mds(allf)
+    fig, ax = plt.subplots(figsize=(6.0, 5.0), dpi=100)
+    ax.scatter(y[: len(pairs), 0], y[: len(pairs), 1], s=3, color=(0.6, 0.6, 0.6), label="target pairs")
+    start = len(pairs)
+    cmap = plt.get_cmap("tab10")
+    for k, (q, f) in enumerate(zip(samples, groups)):
+        yy = y[start:start + len(f)]
+        start += len(f)
+        frac = planner.match_fraction(q)
+        ax.scatter(yy[:, 0], yy[:, 1], s=18, color=cmap(k % 10), marker="^",
+                   label=f"DOF {np.round(np.asarray(q), 2).tolist()}: {100 * frac:.0f}% matched")
+    ax.set_xlabel("MDS 1")
+    ax.set_ylabel("MDS 2")
+    ax.set_title("Pair features: target and gripper constellations (Fig. 7)", fontsize=9)
+    ax.legend(fontsize=6, loc="best")
+    fig.tight_layout()
+    _save(fig, path)
+    plt.close(fig)
+    return path
+
+
+def figure8(candidates, path: str, title: str = "") -> str:
+    """The paper's Figure 8: alignment quality Q_A against grasp quality epsilon over the planned
+    candidates (force-closure ones in colour), with the rank correlation in the title."""
+    from scipy.stats import spearmanr
+
+    plt = _pyplot()
+    qa = np.array([c.alignment_quality for c in candidates], float)
+    eps = np.array([c.epsilon for c in candidates], float)
+    fc = np.array([c.force_closure for c in candidates], bool)
+    fig, ax = plt.subplots(figsize=(6.0, 4.5), dpi=100)
+    ax.scatter(qa[~fc], eps[~fc], s=8, color=(0.6, 0.6, 0.6), label=f"not force-closure ({int((~fc).sum())})")
+    ax.scatter(qa[fc], eps[fc], s=14, color=(0.85, 0.2, 0.1), label=f"force-closure ({int(fc.sum())})")
+    rho = float("nan")
+    if len(qa) > 2 and np.ptp(qa) > 0 and np.ptp(eps) > 0:
+        rho = float(spearmanr(qa, eps).statistic)
+    ax.set_xlabel("alignment quality Q_A")
+    ax.set_ylabel("grasp quality epsilon")
+    ax.set_title(f"{title} Q_A vs epsilon over {len(qa)} candidates (Spearman {rho:.2f}) (Fig. 8)".strip(),
+                 fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    _save(fig, path)
+    plt.close(fig)
+    return path
