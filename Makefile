@@ -30,10 +30,10 @@ pytest: install
 # Every test: C++ (ctest, including the find_package consumer) and Python (pytest).
 test: ctest pytest
 
-# The main job on the bundled models.
+# The main job on the bundled models: grasps.json and pictures in $(OUT).
 demo: install
-	pairgrasp info --hand models/barrett/barrett.json --target models/targets/flask.stl \
-	  --paint models/targets/flask.paint.json
+	pairgrasp plan --hand models/barrett/barrett.json --target models/targets/flask.stl \
+	  --paint models/targets/flask.paint.json --top 5 --seed 1 -o $(OUT)
 
 bench: deps
 	cmake -S . -B build/bench -G "$(GENERATOR)" -DCMAKE_BUILD_TYPE=Release \
