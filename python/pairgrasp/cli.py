@@ -149,28 +149,13 @@ def _cmd_plan(args) -> int:
 
 def _cmd_figures(args) -> int:
     from . import render
-    from .planner import dof_grid
 
     out = args.output
     if os.path.exists(out) and not os.path.isdir(out):
         raise ValueError(f"-o: {out} exists and is not a directory")
     planner = _planner_from_args(args)
     result = planner.plan(progress=None if not args.quiet else False)
-    hand = planner.hand
-    lo, hi = np.asarray(hand.dof_lower, float), np.asarray(hand.dof_upper, float)
-    # Figure 7: the best grasp's DOF sample, the mid-range sample and a sample the schedule rejected.
-    samples = []
-    if result.grasps:
-        samples.append(np.asarray(result.grasps[0].sample))
-    samples.append((lo + hi) / 2.0)
-    axes = dof_grid(lo, hi, planner.steps(args.step))
-    rng = np.random.default_rng(args.seed)
-    for _ in range(200):
-        q = np.array([a[rng.integers(len(a))] for a in axes])
-        if planner.match_fraction(q) < planner.params.min_match_fraction:
-            samples.append(q)
-            break
-    samples.append(lo.copy())
+    samples = render.figure7_samples(planner, result, seed=args.seed)
     parent = os.path.dirname(os.path.abspath(out))
     os.makedirs(parent, exist_ok=True)
     tmpdir = tempfile.mkdtemp(prefix=".pairgrasp-", dir=parent)

@@ -10,7 +10,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-__all__ = ["draw_grasp", "figure7", "figure8", "classical_mds"]
+__all__ = ["draw_grasp", "figure7", "figure7_samples", "figure8", "classical_mds"]
 
 _FREE = (0.70, 0.74, 0.80)
 _OCCLUDED = (0.93, 0.55, 0.20)
@@ -120,8 +120,8 @@ def classical_mds(points: np.ndarray, dims: int = 2) -> np.ndarray:
 
 def figure7(planner, samples: Sequence[np.ndarray], path: str, max_target: int = 1500, seed: int = 0) -> str:
     """The paper's Figure 7: target pair features and the gripper's pair features for several DOF
-    samples, projected to 2-D by classical MDS. Features are scaled per coordinate (d by d_max, the
-    angles by pi) so that the projection weighs distance and angles alike."""
+    samples, projected to 2-D by classical MDS. Features (d, phi, beta_ij + beta_ji) are divided by
+    their ranges (d_max, 2, 4) so that the projection weighs distance and angles alike."""
     from . import _core
 
     plt = _pyplot()
@@ -129,7 +129,7 @@ def figure7(planner, samples: Sequence[np.ndarray], path: str, max_target: int =
     rng = np.random.default_rng(seed)
     if len(pairs) > max_target:
         pairs = pairs[rng.choice(len(pairs), max_target, replace=False)]
-    scale = np.array([planner.d_max, np.pi, np.pi, np.pi])
+    scale = np.array([planner.d_max, 2.0, 4.0])  # the ranges of d, phi and beta_ij + beta_ji
     groups = []
     for q in samples:
         c = planner.constellation(q)
@@ -157,6 +157,27 @@ def figure7(planner, samples: Sequence[np.ndarray], path: str, max_target: int =
     _save(fig, path)
     plt.close(fig)
     return path
+
+
+def figure7_samples(planner, result, seed: int = 0):
+    """DOF samples worth showing in Figure 7: the best grasp's sample, the mid-range sample, a grid
+    sample the early rejection would drop (if one is found in 200 random draws) and the lower limits."""
+    from .planner import dof_grid
+
+    hand = planner.hand
+    lo, hi = np.asarray(hand.dof_lower, float), np.asarray(hand.dof_upper, float)
+    samples = [np.asarray(result.grasps[0].sample)] if result.grasps else []
+    samples.append((lo + hi) / 2.0)
+    axes = dof_grid(lo, hi, planner.steps(result.params.step))
+    fractions = [planner.match_fraction(q) for q in samples]
+    rng = np.random.default_rng(seed)
+    for _ in range(200):
+        q = np.array([a[rng.integers(len(a))] for a in axes])
+        if planner.match_fraction(q) < planner.params.min_match_fraction * max(fractions):
+            samples.append(q)
+            break
+    samples.append(lo.copy())
+    return samples
 
 
 def figure8(candidates, path: str, title: str = "") -> str:

@@ -207,3 +207,13 @@ def test_classical_mds_preserves_planar_distances():
     y = classical_mds(x, 2)
     d = lambda a: np.sqrt(((a[:, None] - a[None]) ** 2).sum(-1))  # noqa: E731
     np.testing.assert_allclose(d(y), d(plane), atol=1e-8)
+
+
+def test_same_result_on_one_thread(jaw_result):
+    one = pg.Planner(str(JAW), str(BOX), paint=str(BOX_PAINT), edge=0.008, top=3, seed=1, fine_tune=2,
+                     fine_tune_iterations=6, poses_per_sample=3, threads=1).plan(progress=False)
+    a, b = jaw_result.to_dict(), one.to_dict()
+    for d in (a, b):
+        d.pop("timings")
+        d["parameters"].pop("threads")
+    assert a == b
