@@ -76,10 +76,7 @@ def pictures(planner, results, target: str, folder: str, n: int):
     for schedule in ("fast", "grid"):
         for g in results[schedule].grasps[:n]:
             name = f"{target}_{schedule}_{g.rank}.png"
-            title = (f"Barrett hand on the {target} ({schedule}): rank {g.rank}, eps {g.epsilon:.4f}"
-                     f"{' (force closure)' if g.force_closure else ''}, penetration {1000 * g.penetration_depth:.2f} mm")
-            render.draw_grasp(planner.hand, planner.target, planner.free, g.wrist_pose, g.dofs,
-                              os.path.join(folder, name), title=title, contacts=g.contact_points)
+            render.draw_planned(planner, g, os.path.join(folder, name), f"the {target} ({schedule})")
             names.append(name)
     r = results["fast"]
     render.figure7(planner, render.figure7_samples(planner, r), os.path.join(folder, f"fig7_{target}.png"))

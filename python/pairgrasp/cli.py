@@ -126,10 +126,7 @@ def _cmd_plan(args) -> int:
         pictures = []
         for g in result.grasps[: args.pictures]:
             name = f"grasp_{g.rank:02d}.png"
-            title = (f"{planner.hand.name} on {os.path.basename(args.target)}: rank {g.rank}, eps {g.epsilon:.4f}"
-                     f"{' (force closure)' if g.force_closure else ''}, Q_A {g.alignment_quality:.2f}")
-            render.draw_grasp(planner.hand, planner.target, planner.free, g.wrist_pose, g.dofs,
-                              os.path.join(tmpdir, name), title=title, contacts=g.contact_points)
+            render.draw_planned(planner, g, os.path.join(tmpdir, name), os.path.basename(args.target))
             pictures.append(name)
         doc["pictures"] = pictures
         _write_json(os.path.join(tmpdir, "grasps.json"), doc)

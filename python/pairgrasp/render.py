@@ -10,7 +10,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-__all__ = ["draw_grasp", "figure7", "figure7_samples", "figure8", "classical_mds"]
+__all__ = ["draw_grasp", "draw_planned", "figure7", "figure7_samples", "figure8", "classical_mds"]
 
 _FREE = (0.70, 0.74, 0.80)
 _OCCLUDED = (0.93, 0.55, 0.20)
@@ -95,6 +95,16 @@ def draw_grasp(hand, target, free: Optional[np.ndarray], wrist_pose, dofs, path:
     _save(fig, path)
     plt.close(fig)
     return path
+
+
+def draw_planned(planner, grasp, path: str, label: str = "") -> str:
+    """:func:`draw_grasp` of a planned :class:`pairgrasp.Grasp`, titled with its rank, epsilon,
+    Q_A and penetration."""
+    title = (f"{planner.hand.name} on {label or 'the target'}: rank {grasp.rank}, eps {grasp.epsilon:.4f}"
+             f"{' (force closure)' if grasp.force_closure else ''}, Q_A {grasp.alignment_quality:.2f}, "
+             f"penetration {1000 * grasp.penetration_depth:.2f} mm")
+    return draw_grasp(planner.hand, planner.target, planner.free, grasp.wrist_pose, grasp.dofs, path, title=title,
+                      contacts=grasp.contact_points)
 
 
 def _save(fig, path: str):
