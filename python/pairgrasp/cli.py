@@ -5,7 +5,6 @@ Every failure prints one line `pairgrasp: error: ...` on stderr and exits with a
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import shutil
 import sys
@@ -58,14 +57,6 @@ def _cmd_info(args) -> int:
     return 0
 
 
-def _write_json(path: str, doc: dict):
-    tmp = f"{path}.part"
-    with open(tmp, "w", encoding="utf-8") as fh:
-        json.dump(doc, fh, indent=1, sort_keys=False, allow_nan=False)
-        fh.write("\n")
-    os.replace(tmp, path)
-
-
 def _planner_from_args(args, **extra):
     import pairgrasp as pg
 
@@ -111,6 +102,7 @@ def _finish_outdir(tmpdir: str, outdir: str):
 
 def _cmd_plan(args) -> int:
     from . import render
+    from .grasps_file import write_grasps
 
     out = args.output
     if os.path.exists(out) and not os.path.isdir(out):
@@ -129,7 +121,7 @@ def _cmd_plan(args) -> int:
             render.draw_planned(planner, g, os.path.join(tmpdir, name), os.path.basename(args.target))
             pictures.append(name)
         doc["pictures"] = pictures
-        _write_json(os.path.join(tmpdir, "grasps.json"), doc)
+        write_grasps(os.path.join(tmpdir, "grasps.json"), doc)
         _finish_outdir(tmpdir, out)
     finally:
         shutil.rmtree(tmpdir, ignore_errors=True)
@@ -245,9 +237,6 @@ def main(argv=None) -> int:
         msg = " ".join(str(e).split())
         print(f"pairgrasp: error: {msg}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print("pairgrasp: interrupted", file=sys.stderr)
-        return 130
 
 
 if __name__ == "__main__":
