@@ -440,6 +440,7 @@ class Planner:
                                                max_pairs=int(p.max_pairs), threads=p.threads)
         self.aligner = _core.Aligner(self.tindex.index, max_poses=max(p.poses_per_sample, 1), threads=p.threads)
         depth_tol = p.depth_tolerance if p.depth_tolerance is not None else self.edge / 4.0
+        self.depth_tolerance = float(depth_tol)
         self.checker = _core.GraspChecker(self.hand, self.target, free=free, obstacles=self.obstacles,
                                           depth_tolerance=depth_tol, gap=p.gap, threads=p.threads)
         reach = self._reach(lo, hi)
@@ -643,15 +644,15 @@ class Planner:
                 if c.sample not in best or key > best[c.sample]:
                     best[c.sample] = key
             order = sorted(best, key=lambda s: (best[s], -s), reverse=True)[: p.refine]
-            seen = set(coarse)
+            scheduled = set(coarse)
             fine: List[tuple] = []
             r = max(f // 2, 1)
             for s in order:
                 centre = tuple(int(np.argmin(np.abs(axes[d] - samples[s][d]))) for d in range(len(axes)))
                 for off in itertools.product(*[range(-r, r + 1)] * len(axes)):
                     idx = tuple(min(max(c + o, 0), n - 1) for c, o, n in zip(centre, off, shape))
-                    if idx not in seen:
-                        seen.add(idx)
+                    if idx not in scheduled:
+                        scheduled.add(idx)
                         fine.append(idx)
             if fine:
                 run_stage(fine)
@@ -723,7 +724,12 @@ class Planner:
         """Exponential search along the approach axis (each pruned distance at least doubles, or grows
         by the reported depth), then bisection down to h/2 between the last pruned and the first
         clear distance: ~log2(backoff/h) checks for a candidate that never clears. Returns the
-        candidates that did not clear, with their depth at the aligned pose."""
+        candidates that did not clear, with their depth at the aligned pose.
+
+        While backing off the hand moves rigidly (its DOFs fixed), and a point's penetration depth
+        (its distance to the surface it is inside) shrinks by at most the distance the point moves.
+        So a hand pruned at distance d with depth D stays pruned up to d + D - depth_tolerance: the
+        search gives up at once when that reaches the largest back-off."""
         resolution = self.edge / 2.0
         failed = []
         state = []
@@ -741,7 +747,7 @@ class Planner:
                 if r.pruned:
                     lo = d
                     if hi is None:
-                        if d >= self.backoff - 1e-12:
+                        if d >= self.backoff - 1e-12 or d + float(r.depth) - self.depth_tolerance >= self.backoff:
                             failed.append((c, depth0))  # never clears within the back-off
                             continue
                         d = min(max(2.0 * d, d + float(r.depth) + self.edge / 4.0), self.backoff)

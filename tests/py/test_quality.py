@@ -418,6 +418,62 @@ def test_epsilon_is_finite_and_nonnegative_on_degenerate_grasps():
     assert not q.force_closure and q.epsilon == 0.0 and q.n_contacts == 0 and "no contacts" in q.reason
 
 
+# ------------------------------------------------------------------------------- exact reductions
+
+def _full_hull_epsilon(P, N, radius, mu=0.5, edges=8):
+    """Epsilon and volume of the hull of every wrench, by scipy directly (no reduction)."""
+    from scipy.spatial import ConvexHull
+
+    hull = ConvexHull(np.unique(pg.wrench_matrix(P, N, ORIGIN, radius, mu=mu, edges=edges), axis=0))
+    d = float(-hull.equations[:, -1].max())
+    return max(d, 0.0), float(hull.volume)
+
+
+def test_contacts_inside_a_flat_patch_change_nothing():
+    """Three faces of a cube, each pressed by a 4x4 grid of contacts: the 12 interior contacts of
+    each face are dropped, and epsilon and volume equal those of the hull of all 48 contacts'
+    wrenches."""
+    g = np.linspace(-0.02, 0.02, 4)
+    u, v = [a.ravel() for a in np.meshgrid(g, g)]
+    P, N = [], []
+    for axis, sign in ((0, 1.0), (0, -1.0), (1, 1.0)):
+        pts = np.zeros((16, 3))
+        pts[:, axis] = sign * 0.03
+        others = [k for k in range(3) if k != axis]
+        pts[:, others[0]], pts[:, others[1]] = u, v
+        n = np.zeros((16, 3))
+        n[:, axis] = sign
+        P.append(pts)
+        N.append(n)
+    P, N = np.concatenate(P), np.concatenate(N)
+    eps, vol = _full_hull_epsilon(P, N, 0.05)
+    q = pg.grasp_quality(P, N, ORIGIN, 0.05, max_hull_wrenches=10_000)
+    assert q.force_closure and q.volume_exact and q.n_contacts == 48 and q.n_wrenches == 384
+    assert q.epsilon == pytest.approx(eps, rel=1e-9)
+    assert q.volume == pytest.approx(vol, rel=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_active_set_epsilon_equals_the_full_hull(seed):
+    """Random contacts with distinct normals: the active set's epsilon (forced by a tiny
+    max_hull_wrenches) equals the full hull's, force-closure or not (seeds 3-5 keep the normals
+    in a cone, which is often not force-closure)."""
+    rng = np.random.default_rng(seed)
+    n = 28
+    N = rng.normal(size=(n, 3))
+    if seed >= 3:
+        N[:, 2] = np.abs(N[:, 2]) + 1.5
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    P = N * 0.04 + rng.normal(scale=0.004, size=(n, 3))
+    eps, vol = _full_hull_epsilon(P, N, 0.05)
+    q = pg.grasp_quality(P, N, ORIGIN, 0.05, max_hull_wrenches=7)
+    assert q.epsilon == pytest.approx(eps, rel=1e-9, abs=1e-12)
+    assert q.force_closure == (eps > 1e-9)
+    assert q.volume <= vol * (1 + 1e-9)
+    if not q.volume_exact:
+        assert q.volume < vol  # a subset's hull
+
+
 # ------------------------------------------------------------------------------- API and errors
 
 def test_result_reads_as_object_mapping_and_sequence():
@@ -426,10 +482,11 @@ def test_result_reads_as_object_mapping_and_sequence():
     q = pg.grasp_quality(P.tolist(), N.tolist(), [0, 0, 0], 0.06, mu=0.5, edges=8)
     assert isinstance(q, pg.GraspQuality)
     d = q.as_dict()
-    assert set(d) == {"epsilon", "volume", "force_closure", "n_contacts", "n_wrenches", "rank", "reason"}
+    assert set(d) == {"epsilon", "volume", "force_closure", "n_contacts", "n_wrenches", "rank", "reason",
+                      "volume_exact"}
     assert q["epsilon"] == q[0] == d["epsilon"] == q.epsilon
     assert q[2] is q.force_closure is True and q["n_contacts"] == 4 and q.n_wrenches == 32
-    assert dict(q) == d and len(q) == 7
+    assert dict(q) == d and len(q) == 8 and q.volume_exact
     assert isinstance(q.epsilon, float) and isinstance(q.volume, float)
     with pytest.raises(KeyError):
         q["nope"]
