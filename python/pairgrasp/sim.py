@@ -57,13 +57,14 @@ import math
 import os
 import time
 from dataclasses import asdict, dataclass, fields
-from typing import Dict, List, Optional, Sequence
+from typing import List, Optional, Sequence
 
 import numpy as np
 
 from . import _core
 from .convex import DEFAULT_THRESHOLD, convex_pieces
 from .inertia import mass_properties
+from .planner import _as_mesh, with_overrides
 
 __all__ = ["SimParams", "SimResult", "Simulator", "SimReport", "simulate_grasps", "import_mujoco"]
 
@@ -293,16 +294,11 @@ class Simulator:
 
     def __init__(self, hand, target, obstacles: Sequence = (), params: Optional[SimParams] = None, **overrides):
         mujoco = import_mujoco()
-        self.params = SimParams(**asdict(params)) if params is not None else SimParams()
-        for k, v in overrides.items():
-            if k not in {f.name for f in fields(SimParams)}:
-                raise ValueError(f"unknown simulation parameter {k!r}")
-            setattr(self.params, k, v)
-        self.params.validate()
+        self.params = with_overrides(SimParams, params, overrides, "simulation")
         p = self.params
         self.hand = hand if isinstance(hand, _core.Hand) else _core.load_hand(os.fspath(hand))
-        self.target = target if isinstance(target, _core.Mesh) else _core.load_mesh(os.fspath(target))
-        self.obstacles = [o if isinstance(o, _core.Mesh) else _core.load_mesh(os.fspath(o)) for o in obstacles]
+        self.target = _as_mesh(target, "target")
+        self.obstacles = [_as_mesh(o, "obstacle") for o in obstacles]
         if not self.target.closed:
             raise ValueError("target: the mesh is not closed, so it has no solid to take mass and inertia from")
         props = mass_properties(self.target, p.density)
@@ -321,7 +317,7 @@ class Simulator:
         self.counts = {"pieces": {}}
         # contype/conaffinity: the hand (1) touches the target (2) and obstacles (4); the target
         # touches the obstacles; nothing touches itself.
-        bodies = self._add_hand(spec, mujoco)
+        self._add_hand(spec, mujoco)
         tb = spec.worldbody.add_body(name="target")
         tb.add_freejoint(name="target_free")
         tb.explicitinertial = True
@@ -341,7 +337,7 @@ class Simulator:
             self._obstacle_bodies.append(ob.name)
         self.spec = spec
         self.model = spec.compile()
-        self._check_counts(mujoco, bodies)
+        self._check_counts(mujoco)
         m = self.model
         self._target_body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "target")
         self._target_qadr = m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "target_free")]
@@ -368,7 +364,7 @@ class Simulator:
             g.solimp = [min(0.9, self.params.contact_dmax), self.params.contact_dmax, 0.001, 0.5, 2.0]
         return len(pieces)
 
-    def _add_hand(self, spec, mujoco) -> dict:
+    def _add_hand(self, spec, mujoco) -> None:
         h, p = self.hand, self.params
         joints = h.joints
         links = {link.name: link for link in h.links}
@@ -433,7 +429,6 @@ class Simulator:
             a.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
             a.forcerange = [-force, force]
             self._actuated.append((dof, j0))
-        return bodies
 
     def _set_link_inertia(self, body, name, link):
         body.explicitinertial = True
@@ -464,7 +459,7 @@ class Simulator:
         I = I + np.eye(3) * max(0.0, floor - w.min())
         body.fullinertia = [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]
 
-    def _check_counts(self, mujoco, bodies):
+    def _check_counts(self, mujoco):
         m, h = self.model, self.hand
         movable = [j for j in h.joints if j.type != _core.JointType.fixed]
         mimics = sum(1 for j in h.joints if j.mimic_joint)

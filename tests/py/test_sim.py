@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import pairgrasp as pg
+from test_mesh import icosphere                  # the mesh tests' construction
 
 mujoco = pytest.importorskip("mujoco", reason="the [sim] extra (install_deps.sh installs it)")
 
@@ -35,31 +36,6 @@ def box_mesh(size, centre=(0, 0, 0)):
 def box_inertia(m, size):
     a, b, c = size
     return m / 12 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
-
-
-def icosphere(radius, levels):
-    t = (1 + 5 ** 0.5) / 2
-    V = [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t], [0, -1, -t], [0, 1, -t],
-         [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]]
-    F = [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6],
-         [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10],
-         [8, 6, 7], [9, 8, 1]]
-    V = [np.array(v, float) / np.linalg.norm(v) for v in V]
-    for _ in range(levels):
-        cache, nf = {}, []
-
-        def mid(i, j):
-            key = (min(i, j), max(i, j))
-            if key not in cache:
-                m = V[i] + V[j]
-                V.append(m / np.linalg.norm(m))
-                cache[key] = len(V) - 1
-            return cache[key]
-        for a, b, c in F:
-            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
-            nf += [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
-        F = nf
-    return np.array(V) * radius, np.array(F)
 
 
 def l_prism(depth=0.01):
@@ -102,7 +78,7 @@ def test_rotated_box_inertia_rotates_and_centre_moves():
 
 def test_sphere_inertia_matches_two_fifths_m_r_squared():
     r, rho = 0.04, 1000.0
-    V, F = icosphere(r, 4)                       # 5,120 faces: volume within 0.3% of the sphere's
+    V, F = icosphere(4, r)                       # 5,120 faces: volume within 0.3% of the sphere's
     mp = pg.mass_properties((V + [0.01, 0.02, 0.03], F), rho)
     m = rho * 4 / 3 * math.pi * r ** 3
     assert mp.mass == pytest.approx(m, rel=4e-3)
