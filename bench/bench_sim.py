@@ -11,6 +11,10 @@ random-approach planners do: a uniformly random approach direction towards the c
 random roll and spread, the wrist brought in along the approach until the open hand first touches
 the target, and the fingers closed onto contact (GraspChecker.close); then the same simulation.
 
+A second baseline (`random-fc`) keeps only the random grasps whose closed contacts are force-closure
+(epsilon > 0, the planner's fast lower bound), sampling until `--random` of them are found: it asks
+whether the planner's alignment adds anything to a static epsilon filter.
+
 Every grasp, planned or random, is simulated `--trials` times: trial 0 as planned, the others with
 execution and model errors drawn from one distribution (wrist offset N(0, 1 mm) per axis, wrist
 rotation N(0, 1 degree) about a random axis, friction U(0.4, 0.6), density U(500, 1500) kg/m^3).
@@ -131,6 +135,8 @@ def run(target, args, rng):
     setup = time.perf_counter() - t0
     rows = {}
     for schedule, step in (("fast", None), ("grid", args.grid_step)):
+        if schedule not in args.methods:
+            continue
         t0 = time.perf_counter()
         res = planner.plan(schedule=schedule, step=step, progress=False)
         plan_s = time.perf_counter() - t0
@@ -139,14 +145,22 @@ def run(target, args, rng):
         print(f"  {target} {schedule}: planned in {plan_s:.1f} s, {_rate(rows[schedule]['trials'])}", file=sys.stderr,
               flush=True)
     checker = pg.GraspChecker(planner.hand, mesh, obstacles=[])
-    t0 = time.perf_counter()
-    rand = [(*random_grasp(planner.hand, checker, mesh, rng), 0.0) for _ in range(args.random)]
-    sample_s = time.perf_counter() - t0
-    for k, (T, q, _) in enumerate(rand):
-        e = pg.evaluate_grasp(checker, T, q, close=False)
-        rand[k] = (T, q, e.epsilon)
-    rows["random"] = {"plan_s": sample_s, "trials": trials(sim, rand, args.trials, rng), "grasps": len(rand)}
-    print(f"  {target} random: {_rate(rows['random']['trials'])}", file=sys.stderr, flush=True)
+    for method in ("random", "random-fc"):
+        if method not in args.methods:
+            continue
+        t0 = time.perf_counter()
+        rand, tries = [], 0
+        while len(rand) < args.random and tries < 200 * args.random:
+            tries += 1
+            T, q = random_grasp(planner.hand, checker, mesh, rng)
+            e = pg.evaluate_grasp(checker, T, q, close=False, contacts_per_link=6)
+            if method == "random" or e.force_closure:
+                rand.append((T, q, e.epsilon))
+        sample_s = time.perf_counter() - t0
+        rows[method] = {"plan_s": sample_s, "trials": trials(sim, rand, args.trials, rng), "grasps": len(rand),
+                        "sampled": tries}
+        print(f"  {target} {method}: {len(rand)} of {tries} samples, {_rate(rows[method]['trials'])}",
+              file=sys.stderr, flush=True)
     return {"target": target, "mass": sim.target_mass, "pieces": sim.counts["pieces"]["target"],
             "scene_s": setup, "rows": rows}
 
@@ -158,36 +172,44 @@ def _rate(ts):
 
 def table(results, trials_n) -> str:
     lines = ["| target | method | grasps x trials | held | rate (95% interval) | as planned (trial 0) | "
-             "simulated per grasp (s) | CPU per grasp (s) |", "|---|---|---|---|---|---|---|---|"]
+             "kept in hand | simulated per grasp (s) | CPU per simulated s |", "|---|---|---|---|---|---|---|---|---|"]
     total = {}
     for res in results:
-        for method in ("fast", "grid", "random"):
+        for method in METHODS:
+            if method not in res["rows"]:
+                continue
             row = res["rows"][method]
             ts = row["trials"]
             k, n = sum(t["success"] for t in ts), len(ts)
-            k0 = sum(t["success"] for t in ts if t["trial"] == 0)
-            lo, hi = wilson(k, n)
-            sim_t = np.mean([t["time_simulated"] for t in ts]) if ts else float("nan")
-            cpu = np.mean([t["wall_time"] for t in ts]) if ts else float("nan")
-            lines.append(f"| {res['target']} | {_label(method)} | {row['grasps']} x {trials_n} | {k}/{n} | "
-                         f"{100 * k / max(n, 1):.0f}% ({100 * lo:.0f}-{100 * hi:.0f}%) | {k0}/{row['grasps']} | "
-                         f"{sim_t:.2f} | {cpu:.2f} |")
-            tot = total.setdefault(method, [0, 0, 0, 0, [], []])
-            tot[0] += k
-            tot[1] += n
-            tot[2] += k0
-            tot[3] += row["grasps"]
-            tot[4] += [t["time_simulated"] for t in ts]
-            tot[5] += [t["wall_time"] for t in ts]
-    for method, (k, n, k0, g, st, wt) in total.items():
-        lo, hi = wilson(k, n)
-        lines.append(f"| **all** | {_label(method)} | {g} x {trials_n} | {k}/{n} | {100 * k / max(n, 1):.0f}% "
-                     f"({100 * lo:.0f}-{100 * hi:.0f}%) | {k0}/{g} | {np.mean(st):.2f} | {np.mean(wt):.2f} |")
+            tot = total.setdefault(method, {"grasps": 0, "trials": []})
+            tot["grasps"] += row["grasps"]
+            tot["trials"] += ts
+            lines.append(_row(res["target"], method, row["grasps"], ts, trials_n))
+    for method, tot in total.items():
+        lines.append(_row("**all**", method, tot["grasps"], tot["trials"], trials_n))
     return "\n".join(lines)
 
 
+def _row(target, method, grasps, ts, trials_n) -> str:
+    """One table row: held (success) with its Wilson interval, held as planned, kept in hand (not
+    dropped: held or slipped), mean simulated time per grasp and CPU seconds per simulated second."""
+    k, n = sum(t["success"] for t in ts), len(ts)
+    k0 = sum(t["success"] for t in ts if t["trial"] == 0)
+    kept = sum(t["outcome"] in ("held", "slipped") for t in ts)
+    lo, hi = wilson(k, n)
+    sim_t = sum(t["time_simulated"] for t in ts)
+    cpu = sum(t["wall_time"] for t in ts)
+    return (f"| {target} | {_label(method)} | {grasps} x {trials_n} | {k}/{n} | {100 * k / max(n, 1):.0f}% "
+            f"({100 * max(lo, 0):.0f}-{100 * min(hi, 1):.0f}%) | {k0}/{grasps} | {kept}/{n} | "
+            f"{sim_t / max(n, 1):.2f} | {cpu / max(sim_t, 1e-9):.2f} |")
+
+
+METHODS = ("fast", "grid", "random", "random-fc")
+
+
 def _label(method):
-    return {"fast": "planner, fast top 5", "grid": "planner, grid top 5", "random": "random approach"}[method]
+    return {"fast": "planner, fast top 5", "grid": "planner, grid top 5", "random": "random approach",
+            "random-fc": "random approach, force-closure only"}[method]
 
 
 def main(argv=None) -> int:
@@ -198,10 +220,18 @@ def main(argv=None) -> int:
     ap.add_argument("--random", type=int, default=20, help="random-approach grasps per target")
     ap.add_argument("--trials", type=int, default=4, help="trials per grasp (the first as planned)")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--methods", nargs="+", choices=METHODS, default=["fast", "grid", "random"],
+                    help="planner schedules and baselines to run")
     ap.add_argument("--no-paint", action="store_true", help="plan with every face free")
     ap.add_argument("--picture", help="write epsilon vs outcome of every trial 0 as this PNG")
     ap.add_argument("--json", help="write the measurements as JSON")
+    ap.add_argument("--table-from", metavar="JSON", help="print the table of a run saved with --json and stop")
     args = ap.parse_args(argv)
+    if args.table_from:
+        with open(args.table_from) as fh:
+            saved = json.load(fh)
+        print(table(saved, max(t["trial"] for r in saved for row in r["rows"].values() for t in row["trials"]) + 1))
+        return 0
     rng = np.random.default_rng(args.seed)
     t0 = time.perf_counter()
     results = [run(t, args, rng) for t in args.targets]
@@ -210,14 +240,15 @@ def main(argv=None) -> int:
           f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores; {time.perf_counter() - t0:.0f} s")
     print(table(results, args.trials))
     for res in results:
+        times = ", ".join(f"{m} {row['plan_s']:.1f} s" + (f" ({row['sampled']} samples)" if "sampled" in row else "")
+                          for m, row in res["rows"].items())
         print(f"{res['target']}: {res['mass']:.3f} kg, {res['pieces']} convex pieces, scene built in "
-              f"{res['scene_s']:.1f} s; plan fast {res['rows']['fast']['plan_s']:.1f} s, grid "
-              f"{res['rows']['grid']['plan_s']:.1f} s, random sampling {res['rows']['random']['plan_s']:.1f} s")
+              f"{res['scene_s']:.1f} s; planning or sampling: {times}")
     if args.picture:
         eps, rs, groups = [], [], []
         for res in results:
-            for method in ("fast", "grid", "random"):
-                for t in res["rows"][method]["trials"]:
+            for method, row in res["rows"].items():
+                for t in row["trials"]:
                     if t["trial"] == 0:
                         eps.append(t["epsilon"])
                         rs.append(t["result"])

@@ -24,10 +24,9 @@ import numpy as np
 
 __all__ = ["convex_pieces", "cache_dir", "is_convex"]
 
-# CoACD's concavity threshold (its default): the largest distance, relative to the mesh's bounding box
-# diagonal, between a part and its hull. At 0.05 the bundled mug decomposes into ~20 parts that keep
-# its cavity and handle open; 0.02 doubles the parts and the simulation's collision time for
-# contacts that move by ~1 mm.
+# CoACD's concavity threshold (its default): the largest concavity left in a part, relative to the
+# mesh's bounding-box diagonal. At 0.05 the bundled mug decomposes into 26 parts that keep its cavity
+# and handle open, the flask into 10, the parallel jaw's L-shaped fingers into 3.
 DEFAULT_THRESHOLD = 0.05
 
 

@@ -33,23 +33,26 @@ The procedure (:meth:`Simulator.simulate`), times in :class:`SimParams`:
    was when the grasp was planned), each closing DOF is driven towards its closing limit with its
    bounded force, other DOFs (the Barrett spread) hold their planned values, for ``close_time``.
 2. **Load.** Gravity is turned on along -z of the target frame (the object's "down": lifting it),
-   then turned smoothly through +x, +y, -x, -y, +z and back to -z (equivalent to turning the hand
-   slowly through every orientation), holding each direction for ``hold_time``.
+   then turned smoothly through +x, +y, -x, -y, +z and back to -z (as if the hand were turned
+   through every orientation), holding each direction for ``hold_time``.
 3. **Shake.** With gravity along -z, the hand is shaken along x, y and z in turn with a sinusoidal
    acceleration of amplitude ``shake_accel`` at ``shake_frequency``.
 
 The simulation runs in the hand's frame: the hand is fixed and the loads are applied as the
 gravity vector ``g - a`` (gravity minus the hand's acceleration), which is exact for a hand that
-translates, and for the slow turns neglects only centrifugal terms of order omega² r (rotating by
-pi/2 in ``turn_time`` = 0.25 s puts 0.04 m/s² on an object 0.1 m from the wrist, 0.4% of g).
+translates (the shake). For the turns it leaves out the rotating frame's terms: a 90° turn in
+``turn_time`` = 0.25 s averages 6.3 rad/s, whose centrifugal acceleration omega² r is 4 m/s² at
+0.1 m from the wrist, the order of the shake's 5 m/s² that every grasp then meets anyway.
 
 **Success** is decided by the object's pose relative to the palm after closing against its pose
 during the load and shake phases: the largest displacement of its centre of mass must stay below
 ``max_translation`` (10 mm) and its largest rotation below ``max_rotation`` (0.2 rad, 11.5°). An
 object that is held moves by the contacts' compliance only (a few millimetres: see the README's
 Physics check section for measured figures), a dropped one falls without bound (the run stops once
-it has moved 5 times the thresholds), and a grasp whose object has slid by more than a centimetre or
-turned by more than 11° no longer has the planned contacts.
+it has moved 5 times the thresholds), and a grasp whose object has slid by more than a centimetre
+(two of the planner's 5 mm unit facets) or turned by more than 11° no longer has the planned
+contacts. :attr:`SimResult.outcome` tells a grasp that slipped but kept the object from one that
+dropped it.
 """
 from __future__ import annotations
 
@@ -86,14 +89,14 @@ class SimParams:
 
     Attributes:
         density: target density, kg/m³. 1000 (water; most plastics are 900-1400): the bundled
-            targets weigh 0.15-0.43 kg, like the paper's household objects.
+            targets weigh 0.15-0.43 kg.
         hand_density: density of hand links without a URDF ``<inertial>``, kg/m³. The root is fixed
             and the fingers are servoed, so their masses barely change the outcome.
         friction: Coulomb friction coefficient of every contact, the planner's mu (0.5: rubber or
             plastic finger pads on plastic or glass are 0.4-1.0).
-        timestep: s. 1 ms: stable for the stiffest contact (a 50 N jaw on a 0.15 kg object) with the
-            implicit-fast integrator, and 20 steps per contact time constant (MuJoCo's default
-            solref 0.02 s).
+        timestep: s. 1 ms with the implicit-fast integrator: 4 steps per contact time constant
+            (``contact_timeconst``), stable in every run of the tests and the benchmark (the jaw's
+            50 N on the 0.43 kg box, the Barrett's 5 N·m on the 0.15 kg mug).
         impratio: MuJoCo's ratio of frictional to normal constraint impedance; 10 with elliptic
             friction cones (MuJoCo's recommendation for grasping) keeps a static grasp from creeping.
         effort_scale: factor on every URDF ``effort`` (actuator force bound).
@@ -561,6 +564,7 @@ class Simulator:
                 outcome = "slipped"
         finally:
             self._restore(saved)
+            m.opt.gravity[:] = 0.0
         return SimResult(success=outcome == "held", outcome=outcome, slip_translation=slip_t, slip_rotation=slip_r,
                          closing_translation=closing_t, closing_rotation=closing_r, contact_links=touching,
                          time_simulated=p.close_time + t, wall_time=time.perf_counter() - t_wall)
