@@ -92,6 +92,52 @@ void bind_hand(pyb::module_& m) {
         return s.str();
       });
 
+  pyb::enum_<HandJoint::Type>(m, "JointType", "Type of a URDF joint.")
+      .value("fixed", HandJoint::Type::Fixed)
+      .value("revolute", HandJoint::Type::Revolute)
+      .value("continuous", HandJoint::Type::Continuous)
+      .value("prismatic", HandJoint::Type::Prismatic);
+
+  pyb::class_<HandJoint>(m, "HandJoint",
+                         "A URDF joint (fixed ones included). The child link frame is `origin` followed by a "
+                         "rotation of q about `axis` (revolute, continuous) or a translation of q along it "
+                         "(prismatic).")
+      .def_readonly("name", &HandJoint::name)
+      .def_readonly("type", &HandJoint::type, "JointType.")
+      .def_readonly("parent_link", &HandJoint::parent_link)
+      .def_readonly("child_link", &HandJoint::child_link)
+      .def_property_readonly("origin", [](const HandJoint& j) { return matrix4(j.origin); },
+                             "4x4 joint frame in the parent link frame at q = 0 (m).")
+      .def_property_readonly("axis", [](const HandJoint& j) { return Eigen::Vector3d(j.axis); },
+                             "Unit axis in the joint frame.")
+      .def_readonly("limited", &HandJoint::limited, "Has position limits (revolute, prismatic).")
+      .def_readonly("lower", &HandJoint::lower, "Lower limit, rad (m when prismatic).")
+      .def_readonly("upper", &HandJoint::upper, "Upper limit, rad (m when prismatic).")
+      .def_readonly("effort", &HandJoint::effort, "URDF effort limit, N·m (N when prismatic); 0 when absent.")
+      .def_readonly("velocity", &HandJoint::velocity, "URDF velocity limit, rad/s (m/s); 0 when absent.")
+      .def_readonly("mimic_joint", &HandJoint::mimic_joint, "The joint it mimics ('' when none).")
+      .def_readonly("multiplier", &HandJoint::multiplier, "Mimic: q = multiplier * q_mimicked + offset.")
+      .def_readonly("offset", &HandJoint::offset, "Mimic offset, rad (m when prismatic).")
+      .def("__repr__", [](const HandJoint& j) {
+        static const char* names[] = {"fixed", "revolute", "continuous", "prismatic"};
+        std::ostringstream s;
+        s << "HandJoint('" << j.name << "', " << names[static_cast<int>(j.type)] << ", " << j.parent_link << " -> "
+          << j.child_link;
+        if (!j.mimic_joint.empty()) s << ", mimic of " << j.mimic_joint;
+        s << ")";
+        return s.str();
+      });
+
+  pyb::class_<HandInertial>(m, "HandInertial",
+                            "A link's URDF <inertial>: mass (kg), inertia (kg m^2) about the centre of mass in "
+                            "the inertial frame, the frame in the link frame.")
+      .def_readonly("present", &HandInertial::present, "False when the URDF gives none.")
+      .def_readonly("mass", &HandInertial::mass, "kg")
+      .def_property_readonly("frame", [](const HandInertial& i) { return matrix4(i.frame); },
+                             "4x4 inertial frame in the link frame (origin: centre of mass, m).")
+      .def_property_readonly("inertia", [](const HandInertial& i) { return Eigen::Matrix3d(i.inertia); },
+                             "3x3 inertia tensor, kg m^2.");
+
   pyb::class_<HandLink>(m, "HandLink", "A link with geometry, in its own link frame.")
       .def_readonly("name", &HandLink::name)
       .def_readonly("mesh", &HandLink::mesh, "Collision geometry (visual if none), link frame, metres.")
@@ -146,6 +192,11 @@ void bind_hand(pyb::module_& m) {
       .def_property_readonly("root_to_wrist", [](const Hand& h) { return matrix4(h.root_to_wrist()); },
                              "4x4 pose of the wrist frame in the URDF root frame (fixed).")
       .def("link_index", &Hand::link_index, "name"_a, "Index of a link in `links`, -1 when it has no geometry.")
+      .def_property_readonly("joints", &Hand::joints,
+                             "The URDF joints (HandJoint), fixed ones included, depth-first from the root.")
+      .def("inertial", &Hand::inertial, "link"_a,
+           "The URDF <inertial> of a link (HandInertial; present=False when none). ValueError for an unknown "
+           "link.")
       .def(
           "joint_values",
           [](const Hand& h, const pyb::object& dofs, bool clamp) {

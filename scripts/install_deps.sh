@@ -29,5 +29,6 @@ fi
 
 PYTHON="${PYTHON:-python3}"
 "$PYTHON" -m pip install -q --disable-pip-version-check \
-  "scikit-build-core>=0.10" "pybind11>=2.12" "numpy>=1.24" "scipy>=1.10" "matplotlib>=3.6" "pytest>=7" "trimesh>=4"
+  "scikit-build-core>=0.10" "pybind11>=2.12" "numpy>=1.24" "scipy>=1.10" "matplotlib>=3.6" "pytest>=7" "trimesh>=4" \
+  "mujoco>=4.0" "coacd>=1.0.14"   # the [sim] extra, so the physics-check tests run
 echo "install_deps: done"

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <stdexcept>
 
 namespace pairgrasp {
 
@@ -192,6 +193,43 @@ std::vector<std::string> Hand::link_names() const {
   std::vector<std::string> out;
   for (const auto& l : impl_->model.links) out.push_back(l.name);
   return out;
+}
+
+std::vector<HandJoint> Hand::joints() const {
+  const auto& km = impl_->model;
+  std::vector<HandJoint> out;
+  out.reserve(km.joints.size());
+  for (const auto& kj : km.joints) {
+    HandJoint j;
+    j.name = kj.name;
+    switch (kj.type) {
+      case hand_detail::KJoint::Fixed: j.type = HandJoint::Type::Fixed; break;
+      case hand_detail::KJoint::Revolute: j.type = HandJoint::Type::Revolute; break;
+      case hand_detail::KJoint::Continuous: j.type = HandJoint::Type::Continuous; break;
+      case hand_detail::KJoint::Prismatic: j.type = HandJoint::Type::Prismatic; break;
+    }
+    j.parent_link = km.links[static_cast<std::size_t>(kj.parent)].name;
+    j.child_link = km.links[static_cast<std::size_t>(kj.child)].name;
+    j.origin = kj.origin;
+    j.axis = kj.axis;
+    j.limited = kj.limited;
+    j.lower = kj.lower;
+    j.upper = kj.upper;
+    j.effort = kj.effort;
+    j.velocity = kj.velocity;
+    j.mimic_joint = kj.mimic_of;
+    j.multiplier = kj.multiplier;
+    j.offset = kj.offset;
+    out.push_back(std::move(j));
+  }
+  return out;
+}
+
+HandInertial Hand::inertial(const std::string& link_name) const {
+  auto it = impl_->model.link_index.find(link_name);
+  if (it == impl_->model.link_index.end())
+    throw std::invalid_argument("link: no link '" + link_name + "' in " + impl_->model.urdf_path);
+  return impl_->model.links[static_cast<std::size_t>(it->second)].inertial;
 }
 
 const std::string& Hand::wrist_link() const { return impl_->wrist; }

@@ -25,6 +25,7 @@ struct KJoint {
   std::string mimic_of;                       ///< master joint name, empty when not a mimic
   int mimic = -1;                             ///< index into KModel::joints of the master
   double multiplier = 1.0, offset = 0.0;      ///< q = multiplier * q_master + offset
+  double effort = 0.0, velocity = 0.0;        ///< <limit effort, velocity> (0 when absent)
   int value_index = -1;                       ///< index into the joint value vector (-1: fixed)
 };
 
@@ -33,6 +34,7 @@ struct KLink {
   std::string name;
   int parent_joint = -1;  ///< index into KModel::joints (-1: the root)
   int geometry = -1;      ///< index into KModel::geometry (-1: no geometry)
+  HandInertial inertial;  ///< the URDF <inertial> (present = false when absent)
 };
 
 /// A URDF kinematic tree with link geometry.

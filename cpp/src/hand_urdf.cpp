@@ -288,6 +288,18 @@ KModel load_urdf(const std::string& urdf_path, const std::vector<std::string>& p
     const int li = static_cast<int>(km.links.size());
     km.links.push_back({link->name, parent_joint, -1});
     km.link_index[link->name] = li;
+    if (link->inertial) {
+      const urdf::Inertial& in = *link->inertial;
+      HandInertial& hi = km.links[li].inertial;
+      const std::string where = "link '" + link->name + "': <inertial>";
+      if (!finite(in.origin)) throw FileError(urdf_path, where + ": <origin> is not finite");
+      hi.frame = to_pose(in.origin);
+      hi.mass = in.mass;
+      hi.inertia << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
+      if (!std::isfinite(hi.mass) || hi.mass < 0.0 || !hi.inertia.allFinite())
+        throw FileError(urdf_path, where + ": <mass> and <inertia> must be finite, mass >= 0");
+      hi.present = true;
+    }
     Mesh mesh;
     if (link_geometry(*link, urdf_path, package_paths, mesh)) {
       km.links[li].geometry = static_cast<int>(km.geometry.size());
@@ -321,6 +333,12 @@ KModel load_urdf(const std::string& urdf_path, const std::vector<std::string>& p
         if (!axis.allFinite() || axis.norm() < 1e-12)
           throw FileError(urdf_path, where + ": <axis> must be a non-zero vector");
         kj.axis = axis.normalized();
+      }
+      if (j->limits && kj.type != KJoint::Fixed) {
+        kj.effort = j->limits->effort;
+        kj.velocity = j->limits->velocity;
+        if (!std::isfinite(kj.effort) || !std::isfinite(kj.velocity) || kj.effort < 0.0 || kj.velocity < 0.0)
+          throw FileError(urdf_path, where + ": <limit> effort and velocity must be finite and >= 0");
       }
       if (kj.type == KJoint::Revolute || kj.type == KJoint::Prismatic) {
         if (!j->limits) throw FileError(urdf_path, where + ": <limit> is required for this joint type");

@@ -5,6 +5,7 @@ Every failure prints one line `pairgrasp: error: ...` on stderr and exits with a
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import shutil
 import sys
@@ -159,6 +160,43 @@ def _cmd_figures(args) -> int:
     return 0
 
 
+def _cmd_simulate(args) -> int:
+    from .sim import SimParams, import_mujoco, simulate_grasps
+
+    import_mujoco()
+    if not os.path.isfile(args.grasps):
+        raise ValueError(f"GRASPS: no such file: {args.grasps}")
+    overrides = {k: getattr(args, k) for k in ("density", "friction") if getattr(args, k) is not None}
+    params = SimParams(**overrides)
+    params.validate()
+    bar = None
+    if not args.quiet and sys.stderr.isatty():
+        def bar(done, total, _result):
+            sys.stderr.write(f"\rsimulate [{'#' * int(30 * done / total):<30s}] {done}/{total}")
+            if done == total:
+                sys.stderr.write("\n")
+            sys.stderr.flush()
+    t0 = time.perf_counter()
+    rep = simulate_grasps(args.grasps, top=args.top, hand=args.hand, target=args.target, params=params,
+                          picture=not args.no_picture, progress=bar)
+    c = rep.counts
+    print(f"{c['bodies']} bodies, {c['joints']} joints, {c['equalities']} equality constraints, "
+          f"{c['actuators']} actuators, {c['geoms']} convex geoms; target {rep.params.density:g} kg/m^3, "
+          f"friction {rep.params.friction:g}")
+    rows = [f"{'rank':>4s}  {'epsilon':>8s}  {'outcome':>8s}  {'slip':>9s}  {'turn':>9s}  {'sim':>6s}  {'cpu':>6s}"]
+    for rank, eps, r in zip(rep.ranks, rep.epsilons, rep.results):
+        slip = f"{1000 * r.slip_translation:6.2f} mm" if np.isfinite(r.slip_translation) else "     inf"
+        turn = f"{math.degrees(r.slip_rotation):5.1f} deg" if np.isfinite(r.slip_rotation) else "    inf"
+        rows.append(f"{rank:>4d}  {eps:>8.4f}  {r.outcome:>8s}  {slip:>9s}  {turn:>9s}  {r.time_simulated:5.2f}s  "
+                    f"{r.wall_time:5.2f}s")
+    print("\n".join(rows))
+    held = sum(r.success for r in rep.results)
+    n = len(rep.results)
+    print(f"held {held}/{n}; {time.perf_counter() - t0:.1f} s, {sum(r.wall_time for r in rep.results) / max(n, 1):.2f} s "
+          f"per grasp on the CPU; wrote {rep.path}" + (f" and {rep.picture}" if rep.picture else ""))
+    return 0
+
+
 def _positive_float(text: str) -> float:
     try:
         v = float(text)
@@ -220,6 +258,17 @@ def build_parser() -> argparse.ArgumentParser:
     figs = sub.add_parser("figures", help="plan, then draw the paper's Figures 7 and 8 as PNG files")
     _add_plan_arguments(figs, "output folder for fig7_<target>.png and fig8_<target>.png")
     figs.set_defaults(func=_cmd_figures)
+    simu = sub.add_parser("simulate", help="close, lift and shake planned grasps in MuJoCo; write the outcomes "
+                          "into the grasps file")
+    simu.add_argument("grasps", metavar="GRASPS", help="grasps.json written by plan (updated in place)")
+    simu.add_argument("--top", type=_count(1), help="simulate the first K grasps (default all)")
+    simu.add_argument("--hand", help="hand spec (default: the one recorded in the grasps file)")
+    simu.add_argument("--target", help="target mesh (default: the one recorded in the grasps file)")
+    simu.add_argument("--density", type=_positive_float, help="target density, kg/m^3 (default 1000)")
+    simu.add_argument("--friction", type=_positive_float, help="friction coefficient (default 0.5)")
+    simu.add_argument("--no-picture", action="store_true", help="do not draw simulation.png")
+    simu.add_argument("--quiet", action="store_true", help="no progress bar")
+    simu.set_defaults(func=_cmd_simulate)
     return p
 
 
@@ -233,7 +282,7 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("pairgrasp: error: interrupted", file=sys.stderr)
         return 130
-    except (ValueError, RuntimeError, OSError) as e:
+    except (ValueError, RuntimeError, OSError, ImportError) as e:
         msg = " ".join(str(e).split())
         print(f"pairgrasp: error: {msg}", file=sys.stderr)
         return 1

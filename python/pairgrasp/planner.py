@@ -366,6 +366,19 @@ class _Cand:
     evaluation: object = None
 
 
+def with_overrides(cls, params, overrides: dict, what: str):
+    """A validated copy of the parameter dataclass ``params`` (None: the defaults) with the fields in
+    ``overrides`` replaced; ValueError for a field ``cls`` does not have."""
+    out = cls(**asdict(params)) if params is not None else cls()
+    names = {f.name for f in fields(cls)}
+    for k, v in overrides.items():
+        if k not in names:
+            raise ValueError(f"unknown {what} parameter {k!r}")
+        setattr(out, k, v)
+    out.validate()
+    return out
+
+
 def _as_mesh(value, name):
     if isinstance(value, _core.Mesh):
         return value
@@ -398,12 +411,7 @@ class Planner:
     def __init__(self, hand, target, paint=None, occluders=(), viewpoints=None, obstacles=(),
                  params: Optional[PlanParams] = None, occluder_distance: float = 0.005, **overrides):
         t0 = time.perf_counter()
-        self.params = PlanParams(**asdict(params)) if params is not None else PlanParams()
-        for k, v in overrides.items():
-            if k not in {f.name for f in fields(PlanParams)}:
-                raise ValueError(f"unknown planner parameter {k!r}")
-            setattr(self.params, k, v)
-        self.params.validate()
+        self.params = with_overrides(PlanParams, params, overrides, "planner")
         p = self.params
         self.hand = hand if isinstance(hand, _core.Hand) else _core.load_hand(os.fspath(hand))
         self.target = _as_mesh(target, "target")

@@ -10,7 +10,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-__all__ = ["draw_grasp", "draw_planned", "figure7", "figure7_samples", "figure8", "classical_mds"]
+__all__ = ["draw_grasp", "draw_planned", "figure7", "figure7_samples", "figure8", "classical_mds", "simulation_figure"]
 
 _FREE = (0.70, 0.74, 0.80)
 _OCCLUDED = (0.93, 0.55, 0.20)
@@ -209,6 +209,40 @@ def figure8(candidates, path: str, title: str = "") -> str:
     ax.set_ylabel("grasp quality epsilon")
     ax.set_title(f"{title} Q_A vs epsilon over {len(qa)} candidates (Spearman {rho:.2f}) (Fig. 8)".strip(),
                  fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    _save(fig, path)
+    plt.close(fig)
+    return path
+
+
+def simulation_figure(epsilons: Sequence[float], results, params, path: str, title: str = "",
+                      groups: Optional[Sequence[str]] = None) -> str:
+    """Epsilon against the simulated outcome: each grasp's largest slip relative to the palm (mm, log
+    scale), held grasps in green, slipped or dropped ones in red, the success threshold dashed.
+    ``groups`` (one label per grasp) draws each group with its own marker."""
+    plt = _pyplot()
+    eps = np.asarray(epsilons, float)
+    slip = np.array([r.slip_translation for r in results], float) * 1000.0
+    floor, ceil = 0.01, 5000.0 * params.max_translation
+    slip = np.clip(np.where(np.isfinite(slip), slip, ceil), floor, ceil)
+    ok = np.array([r.success for r in results], bool)
+    labels = list(groups) if groups is not None else ["grasps"] * len(results)
+    markers = ["o", "s", "^", "D", "v", "P"]
+    fig, ax = plt.subplots(figsize=(6.0, 4.5), dpi=100)
+    for k, name in enumerate(dict.fromkeys(labels)):
+        sel = np.array([lab == name for lab in labels], bool)
+        mk = markers[k % len(markers)]
+        for mask, colour, what in ((sel & ok, (0.1, 0.6, 0.2), "held"), (sel & ~ok, (0.85, 0.15, 0.1), "not held")):
+            if mask.any():
+                ax.scatter(eps[mask], slip[mask], s=22, marker=mk, color=colour, alpha=0.8,
+                           label=f"{name}: {what} ({int(mask.sum())})")
+    ax.axhline(1000.0 * params.max_translation, color="k", ls="--", lw=0.8, label="success threshold")
+    ax.set_yscale("log")
+    ax.set_xlabel("grasp quality epsilon (planned)")
+    ax.set_ylabel("largest slip relative to the palm (mm)")
+    rate = 100.0 * ok.mean() if len(ok) else 0.0
+    ax.set_title(f"{title} simulated: {int(ok.sum())}/{len(ok)} held ({rate:.0f}%)".strip(), fontsize=9)
     ax.legend(fontsize=7)
     fig.tight_layout()
     _save(fig, path)

@@ -13,6 +13,7 @@
 #include <functional>
 #include <random>
 #include <set>
+#include <stdexcept>
 #include <thread>
 
 #include <unistd.h>
@@ -204,6 +205,34 @@ TEST(HandLoad, ParallelJawLoads) {
 }
 
 // ------------------------------------------------------------------------------- kinematics
+
+TEST(HandLoad, JointsListTheUrdfTree) {
+  const Hand h = Hand::load(kBarrett);
+  const auto joints = h.joints();
+  ASSERT_EQ(joints.size(), 9u);  // 10 links: one parent joint each but the palm's
+  const auto links = h.link_names();
+  for (std::size_t k = 0; k < joints.size(); ++k) EXPECT_EQ(joints[k].child_link, links[k + 1]);
+  int fixed = 0, mimics = 0;
+  for (const auto& j : joints) {
+    fixed += j.type == HandJoint::Type::Fixed;
+    if (!j.mimic_joint.empty()) {
+      ++mimics;
+      EXPECT_NEAR(j.multiplier, 1.0 / 3.0, 1e-12) << j.name;
+    }
+    if (j.type == HandJoint::Type::Revolute) EXPECT_EQ(j.effort, 5.0) << j.name;
+  }
+  EXPECT_EQ(fixed, 1);   // finger 3's knuckle
+  EXPECT_EQ(mimics, 3);  // the distal joints
+  const auto& j12 = joints[1];
+  EXPECT_EQ(j12.name, "bh_j12");
+  EXPECT_EQ(j12.parent_link, "bh_f1_knuckle");
+  EXPECT_TRUE(j12.origin.translation().isApprox(Vector3d(0, kKnuckle, kKnuckleHeight)));
+  EXPECT_TRUE(j12.axis.isApprox(Vector3d::UnitX()));
+  EXPECT_EQ(j12.lower, 0.0);
+  EXPECT_EQ(j12.upper, 2.44);
+  EXPECT_FALSE(h.inertial("bh_palm").present);
+  EXPECT_THROW(h.inertial("no_such_link"), std::invalid_argument);
+}
 
 TEST(HandKinematics, FingertipsMatchHandComputation) {
   const Hand& h = barrett();

@@ -292,3 +292,64 @@ def test_missing_and_malformed_files(tmp_path):
     (tmp_path / "bad.json").write_text("{")
     with pytest.raises(pg.FileError, match=r"bad\.json: invalid JSON"):
         pg.load_hand(tmp_path / "bad.json")
+
+
+def _joint_motion(j, q):
+    """4x4 motion of a joint at value q about / along its axis (Rodrigues), independent of the library's FK."""
+    T = np.eye(4)
+    a = np.asarray(j.axis, float)
+    if j.type == pg.JointType.prismatic:
+        T[:3, 3] = q * a
+    elif j.type != pg.JointType.fixed:
+        K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+        T[:3, :3] = np.eye(3) + math.sin(q) * K + (1 - math.cos(q)) * K @ K
+    return T
+
+
+@pytest.mark.parametrize("spec", [BARRETT, JAW])
+def test_joints_rebuild_forward_kinematics(spec):
+    h = pg.load_hand(spec)
+    joints = h.joints
+    assert [j.child_link for j in joints] == h.link_names[1:]            # one parent joint per non-root link
+    assert [j.name for j in joints if j.type != pg.JointType.fixed] == h.joint_names
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        dofs = rng.uniform(h.dof_lower, h.dof_upper)
+        q = h.joint_values(dofs)
+        pose = {h.link_names[0]: np.linalg.inv(h.root_to_wrist)}
+        for j in joints:
+            pose[j.child_link] = pose[j.parent_link] @ j.origin @ _joint_motion(j, q.get(j.name, 0.0))
+        T = h.link_transforms(dofs)
+        for name, M in pose.items():
+            np.testing.assert_allclose(M, T[name], atol=1e-12)
+
+
+def test_barrett_joint_facts(barrett):
+    by = {j.name: j for j in barrett.joints}
+    assert len(by) == 9 and sum(j.type == pg.JointType.fixed for j in by.values()) == 1   # finger 3's knuckle
+    j12, j13 = by["bh_j12"], by["bh_j13"]
+    assert (j12.parent_link, j12.child_link) == ("bh_f1_knuckle", "bh_f1_prox")
+    np.testing.assert_allclose(j12.origin[:3, 3], [0.0, KNUCKLE, KNUCKLE_H], atol=1e-12)
+    np.testing.assert_allclose(j12.axis, [1, 0, 0])
+    assert (j12.lower, j12.upper, j12.effort, j12.velocity) == (0.0, 2.44, 5.0, 1.0)
+    assert j12.mimic_joint == "" and j13.mimic_joint == "bh_j12"
+    assert j13.multiplier == pytest.approx(1 / 3) and j13.offset == 0.0
+    assert not barrett.inertial("bh_palm").present                     # the bundled URDF has no <inertial>
+    with pytest.raises(ValueError, match="no link 'nope'"):
+        barrett.inertial("nope")
+
+
+def test_urdf_inertial_read(tmp_path):
+    urdf = SMALL_URDF.format(uri="package://barrett/meshes/bh_finger_prox.stl").replace(
+        '<link name="palm">', '<link name="palm"><inertial><origin xyz="0.01 0 0.002" rpy="0 0 1.5707963267948966"/>'
+        '<mass value="0.25"/><inertia ixx="1e-4" ixy="1e-6" ixz="0" iyy="2e-4" iyz="0" izz="3e-4"/></inertial>')
+    (tmp_path / "small.urdf").write_text(urdf)
+    spec = tmp_path / "small.json"
+    spec.write_text(json.dumps(SMALL_SPEC))
+    h = pg.load_hand(spec, package_paths=[str(MODELS)])
+    i = h.inertial("palm")
+    assert i.present and i.mass == 0.25
+    np.testing.assert_allclose(i.frame[:3, 3], [0.01, 0, 0.002])
+    np.testing.assert_allclose(i.frame[:3, :3], [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-12)
+    np.testing.assert_allclose(i.inertia, [[1e-4, 1e-6, 0], [1e-6, 2e-4, 0], [0, 0, 3e-4]])
+    assert not h.inertial("finger").present

@@ -43,6 +43,37 @@ struct HandLink {
   bool active() const { return !active_faces.empty(); }
 };
 
+/// A URDF joint of the hand's kinematic tree (fixed joints included), as read from the URDF.
+/// The child link's frame is the joint frame: at joint value q it is `origin` followed by a
+/// rotation of q about `axis` (revolute, continuous) or a translation of q along it (prismatic).
+struct HandJoint {
+  enum class Type { Fixed, Revolute, Continuous, Prismatic };
+  std::string name;
+  Type type = Type::Fixed;
+  std::string parent_link;  ///< URDF parent link
+  std::string child_link;   ///< URDF child link
+  Pose origin = Pose::Identity();  ///< joint (child link) frame in the parent link frame at q = 0, metres
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitX();  ///< unit, joint frame (unused when fixed)
+  bool limited = false;     ///< has position limits (revolute, prismatic)
+  double lower = 0.0;       ///< lower limit (rad, or m when prismatic)
+  double upper = 0.0;       ///< upper limit (rad, or m when prismatic)
+  double effort = 0.0;      ///< URDF <limit effort>: N·m (revolute, continuous) or N (prismatic); 0 when absent
+  double velocity = 0.0;    ///< URDF <limit velocity>: rad/s or m/s; 0 when absent
+  std::string mimic_joint;  ///< the joint it mimics (empty when it is not a mimic joint)
+  double multiplier = 1.0;  ///< mimic: q = multiplier * q_mimicked + offset
+  double offset = 0.0;      ///< mimic offset (rad or m)
+};
+
+/// A link's URDF <inertial>: mass (kg) and inertia tensor (kg·m², about the centre of mass, in
+/// the inertial frame), the inertial frame given in the link frame (its origin is the centre of
+/// mass, metres).
+struct HandInertial {
+  bool present = false;  ///< false when the URDF gives no <inertial> for the link
+  double mass = 0.0;
+  Pose frame = Pose::Identity();
+  Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
+};
+
 /// Samples of the active surface at one DOF vector, in the wrist frame.
 struct Constellation {
   Points points;               ///< (P,3) metres
@@ -103,6 +134,12 @@ class Hand {
   int link_index(const std::string& link_name) const;
   /// Every URDF link (with or without geometry), in the same depth-first order.
   std::vector<std::string> link_names() const;
+  /// The URDF joints, fixed ones included, depth-first from the root like link_names() (the
+  /// parent joint of every link but the root, in that link's order).
+  std::vector<HandJoint> joints() const;
+  /// The URDF <inertial> of a link (present = false when it has none). Throws
+  /// std::invalid_argument for an unknown link name.
+  HandInertial inertial(const std::string& link_name) const;
   /// Name of the wrist link (the frame poses are expressed in).
   const std::string& wrist_link() const;
   /// Approach direction in the wrist frame (unit): the direction the palm faces.

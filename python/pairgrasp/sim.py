@@ -1,0 +1,735 @@
+"""Physics check of planned grasps: does the hand, closed on the object at the planned pose, hold it?
+
+A static epsilon says a grasp *could* resist wrenches; this module closes the hand on the object in
+MuJoCo (the ``mujoco`` package of the ``sim`` extra: ``pip install .[sim]``) and loads the grasp with
+gravity along several directions and a shake, then measures how far the object moved relative to the
+palm. The library imports and works without MuJoCo; only :class:`Simulator` and
+:func:`simulate_grasps` need it.
+
+The scene (:class:`Simulator`, compiled once per hand, target and obstacles):
+
+* **Hand.** One body per URDF link, rooted at the URDF root, which is fixed in the world: the
+  simulation runs in the hand's frame (see *Loads*). Every non-fixed URDF joint is a MuJoCo hinge or
+  slide joint with the URDF's axis and position limits. Each DOF of the hand spec has one position
+  actuator on its first joint; the DOF's other joints and every URDF ``<mimic>`` joint follow through
+  joint equality constraints (``polycoef``: q = offset + ratio q_master), which MuJoCo's own URDF
+  importer would drop. The actuator's force is bounded by that joint's URDF ``effort`` (N·m or N)
+  and each joint is damped by effort / velocity, so a saturated actuator closes the finger at no
+  more than the URDF's velocity limit. Links collide as convex pieces (:func:`pairgrasp.convex_pieces`:
+  the link mesh when it is convex, else CoACD parts, cached). Masses come from the URDF
+  ``<inertial>`` when present, else from the link's solid at ``hand_density``. The hand does not
+  collide with itself (the planner does not check self-collision either).
+* **Target.** A free body whose mass, centre of mass and inertia tensor come from the watertight
+  mesh and ``density`` (:func:`pairgrasp.mass_properties`; the convex parts overlap, so their
+  volumes would overfill), colliding as convex pieces (CoACD for non-convex targets).
+* **Obstacles and occluders** of the plan: static (mocap) bodies of convex pieces, in the target
+  frame. They take part while the hand closes and are moved away for the load phases, as when the
+  object is lifted off a table or taken from the holder's hand.
+
+The procedure (:meth:`Simulator.simulate`), times in :class:`SimParams`:
+
+1. **Close.** The hand is placed at the wrist pose with every closing DOF opened by
+   ``open_fraction`` of its range from the planned value; without gravity (the object rests as it
+   was when the grasp was planned), each closing DOF is driven towards its closing limit with its
+   bounded force, other DOFs (the Barrett spread) hold their planned values, for ``close_time``.
+2. **Load.** Gravity is turned on along -z of the target frame (the object's "down": lifting it),
+   then turned smoothly through +x, +y, -x, -y, +z and back to -z (as if the hand were turned
+   through every orientation), holding each direction for ``hold_time``.
+3. **Shake.** With gravity along -z, the hand is shaken along x, y and z in turn with a sinusoidal
+   acceleration of amplitude ``shake_accel`` at ``shake_frequency``.
+
+The simulation runs in the hand's frame: the hand is fixed and the loads are applied as the
+gravity vector ``g - a`` (gravity minus the hand's acceleration), which is exact for a hand that
+translates (the shake). For the turns it leaves out the rotating frame's terms: a 90° turn in
+``turn_time`` = 0.25 s averages 6.3 rad/s, whose centrifugal acceleration omega² r is 4 m/s² at
+0.1 m from the wrist, the order of the shake's 5 m/s² that every grasp then meets anyway.
+
+**Success** is decided by the object's pose relative to the palm after closing against its pose
+during the load and shake phases: the largest displacement of its centre of mass must stay below
+``max_translation`` (10 mm) and its largest rotation below ``max_rotation`` (0.2 rad, 11.5°). An
+object that is held moves by the contacts' compliance only (a few millimetres: see the README's
+Physics check section for measured figures), a dropped one falls without bound (the run stops once
+it has moved 5 times the thresholds), and a grasp whose object has slid by more than a centimetre
+(two of the planner's 5 mm unit facets) or turned by more than 11° no longer has the planned
+contacts. :attr:`SimResult.outcome` tells a grasp that slipped but kept the object from one that
+dropped it.
+"""
+from __future__ import annotations
+
+import math
+import os
+import time
+from dataclasses import asdict, dataclass, fields
+from typing import List, Optional, Sequence
+
+import numpy as np
+
+from . import _core
+from .convex import DEFAULT_THRESHOLD, convex_pieces
+from .inertia import mass_properties
+from .planner import _as_mesh, with_overrides
+
+__all__ = ["SimParams", "SimResult", "Simulator", "SimReport", "simulate_grasps", "import_mujoco"]
+
+_G = 9.81
+
+
+def import_mujoco():
+    """The ``mujoco`` module, or ImportError naming the extra that installs it."""
+    try:
+        import mujoco  # noqa: F401
+    except ImportError:
+        raise ImportError("the physics check needs MuJoCo: pip install .[sim]") from None
+    return mujoco
+
+
+@dataclass
+class SimParams:
+    """Physical and procedural parameters of the physics check (SI units: m, kg, s, rad).
+
+    Attributes:
+        density: target density, kg/m³. 1000 (water; most plastics are 900-1400): the bundled
+            targets weigh 0.15-0.43 kg.
+        hand_density: density of hand links without a URDF ``<inertial>``, kg/m³. The root is fixed
+            and the fingers are servoed, so their masses barely change the outcome.
+        friction: Coulomb friction coefficient of every contact, the planner's mu (0.5: rubber or
+            plastic finger pads on plastic or glass are 0.4-1.0).
+        timestep: s. 1 ms with the implicit-fast integrator: 4 steps per contact time constant
+            (``contact_timeconst``), stable in every run of the tests and the benchmark (the jaw's
+            50 N on the 0.43 kg box, the Barrett's 5 N·m on the 0.15 kg mug).
+        impratio: MuJoCo's ratio of frictional to normal constraint impedance; 10 with elliptic
+            friction cones (MuJoCo's recommendation for grasping) keeps a static grasp from creeping.
+        effort_scale: factor on every URDF ``effort`` (actuator force bound).
+        hold_fraction: a DOF's actuator is a position servo that reaches its force bound at an
+            error of this fraction of the DOF's range (kp = effort / (hold_fraction * range)). A
+            DOF that does not close the hand (the Barrett spread) holds its planned value with it; a
+            closing DOF is commanded one range beyond its closing limit, so it always pushes with
+            its full bounded force, like a hand's motors closing until they stall.
+        open_fraction: fraction of a closing DOF's range the fingers are opened by before closing
+            (0.02: 0.049 rad on a Barrett flexion, 6 mm at its fingertip; 1.6 mm on the jaw). The
+            planned DOFs touch within the planner's 1 mm gap and penetrate by at most h/4, so this
+            clears them while keeping the re-closing short, so that the fingers reach the object
+            nearly together as in the plan; at 0.05 the first finger to arrive pushed the flask by
+            up to 27 mm before the others caught it.
+        close_time: s of closing, without gravity.
+        turn_time, hold_time: s to turn gravity by 90° and to hold each direction.
+        shake_time: s of shaking per axis (x, y, z).
+        shake_accel: amplitude of the shake's acceleration, m/s² (5: half of g, a brisk 3 cm shake at
+            2 Hz).
+        shake_frequency: Hz.
+        max_translation: success threshold on the displacement of the object's centre of mass
+            relative to the palm, m.
+        max_rotation: success threshold on the object's rotation relative to the palm, rad.
+        convex_threshold: CoACD concavity threshold for non-convex targets, links and obstacles.
+        contact_timeconst: s, MuJoCo's contact time constant (solref). 0.004 (4 timesteps; MuJoCo's
+            stability floor is 2): at MuJoCo's default 0.02 the Barrett fingers, pressing with their
+            5 N·m, sank 8 mm into the flask, a geometry the plan never had; at 0.004 they sink
+            ~0.6 mm, a rubber pad's compression.
+        contact_dmax: MuJoCo's contact impedance at full penetration (solimp dmax; its default).
+    """
+
+    density: float = 1000.0
+    hand_density: float = 1000.0
+    friction: float = 0.5
+    timestep: float = 0.001
+    impratio: float = 10.0
+    effort_scale: float = 1.0
+    hold_fraction: float = 0.02
+    open_fraction: float = 0.02
+    close_time: float = 0.6
+    turn_time: float = 0.25
+    hold_time: float = 0.25
+    shake_time: float = 0.5
+    shake_accel: float = 5.0
+    shake_frequency: float = 2.0
+    max_translation: float = 0.01
+    max_rotation: float = 0.2
+    convex_threshold: float = DEFAULT_THRESHOLD
+    contact_timeconst: float = 0.004
+    contact_dmax: float = 0.95
+
+    def validate(self) -> None:
+        """Raises ValueError naming the first bad field."""
+        for f in fields(self):
+            v = getattr(self, f.name)
+            zero_ok = f.name in ("open_fraction", "shake_time", "shake_accel", "hold_time")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0 \
+                    or (v == 0 and not zero_ok):
+                raise ValueError(f"{f.name}: expected a finite number {'>=' if zero_ok else '>'} 0, got {v!r}")
+        if self.open_fraction >= 1:
+            raise ValueError(f"open_fraction: expected a number in [0, 1), got {self.open_fraction!r}")
+        if self.convex_threshold > 1:
+            raise ValueError(f"convex_threshold: expected a number in (0, 1], got {self.convex_threshold!r}")
+        if self.timestep > 0.01:
+            raise ValueError(f"timestep: {self.timestep:g} s is too long for contact dynamics (at most 0.01 s)")
+
+    @property
+    def duration(self) -> float:
+        """Simulated time of the whole procedure, s."""
+        return self.close_time + 8 * self.turn_time + 8 * self.hold_time + 3 * self.shake_time
+
+
+@dataclass(frozen=True)
+class SimResult:
+    """Outcome of one simulated grasp.
+
+    Attributes:
+        success: the object stayed within both thresholds over the load and shake phases.
+        outcome: ``"held"``, ``"slipped"`` (moved beyond a threshold but stayed in the hand),
+            ``"dropped"`` (moved 5 times a threshold: the run stops there) or ``"unstable"`` (the
+            integration diverged; slips are infinite; not seen with the default parameters).
+        slip_translation: largest displacement of the object's centre of mass relative to the palm
+            after closing, m.
+        slip_rotation: largest rotation of the object relative to the palm after closing, rad.
+        closing_translation, closing_rotation: how far the object moved while the hand closed, m, rad.
+        contact_links: hand links touching the object at the end of closing.
+        time_simulated: s of simulated time.
+        wall_time: s of computer time for this grasp (CPU).
+    """
+
+    success: bool
+    outcome: str
+    slip_translation: float
+    slip_rotation: float
+    closing_translation: float
+    closing_rotation: float
+    contact_links: tuple
+    time_simulated: float
+    wall_time: float
+
+    def to_dict(self) -> dict:
+        """JSON-ready (an unstable run's infinite slips are null)."""
+        def num(x):
+            return round(float(x), 9) if math.isfinite(x) else None
+        return {"success": bool(self.success), "outcome": self.outcome,
+                "slip_translation": num(self.slip_translation), "slip_rotation": num(self.slip_rotation),
+                "closing_translation": round(float(self.closing_translation), 9),
+                "closing_rotation": round(float(self.closing_rotation), 9),
+                "contact_links": list(self.contact_links),
+                "time_simulated": round(float(self.time_simulated), 6),
+                "wall_time": round(float(self.wall_time), 4)}
+
+
+def _as_pose(T, where) -> np.ndarray:
+    T = np.asarray(T, float)
+    if T.shape != (4, 4) or not np.isfinite(T).all():
+        raise ValueError(f"{where}: expected a finite 4x4 pose")
+    R = T[:3, :3]
+    if np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0:
+        raise ValueError(f"{where}: the rotation part is not a rotation")
+    return T
+
+
+def _quat(R) -> np.ndarray:
+    """MuJoCo quaternion (w, x, y, z) of a rotation matrix."""
+    mujoco = import_mujoco()
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R, float).ravel())
+    return q
+
+
+def _rotation_angle(R) -> float:
+    return float(math.acos(max(-1.0, min(1.0, (np.trace(R) - 1.0) / 2.0))))
+
+
+def _slerp_dir(a, b, s) -> np.ndarray:
+    """Unit vector a fraction s (smoothstep-eased) of the way from a to b on the great circle."""
+    s = s * s * (3 - 2 * s)
+    ang = math.acos(max(-1.0, min(1.0, float(a @ b))))
+    if ang < 1e-9:
+        return a.copy()
+    return (math.sin((1 - s) * ang) * a + math.sin(s * ang) * b) / math.sin(ang)
+
+
+# Gravity directions of the load phase, target frame: each 90° from the next, so the turn between
+# consecutive ones is a well-defined great-circle arc.
+_DIRECTIONS = np.array([[0, 0, -1], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0], [0, 0, 1], [1, 0, 0],
+                        [0, 0, -1]], float)
+
+
+def load_profile(params: SimParams, t: float) -> Optional[np.ndarray]:
+    """Gravity minus the hand's acceleration (m/s², target frame) at time t after closing; None past
+    the end of the procedure."""
+    ramp = params.turn_time
+    seg = params.turn_time + params.hold_time
+    if t < ramp:                                     # gravity fades in along -z
+        s = t / ramp
+        return _G * (s * s * (3 - 2 * s)) * _DIRECTIONS[0]
+    t -= ramp
+    if t < params.hold_time:
+        return _G * _DIRECTIONS[0]
+    t -= params.hold_time
+    for a, b in zip(_DIRECTIONS[:-1], _DIRECTIONS[1:]):
+        if t < seg:
+            return _G * (_slerp_dir(a, b, t / params.turn_time) if t < params.turn_time else b)
+        t -= seg
+    for axis in range(3):
+        if t < params.shake_time:
+            g = _G * _DIRECTIONS[-1].copy()
+            g[axis] -= params.shake_accel * math.sin(2 * math.pi * params.shake_frequency * t)
+            return g
+        t -= params.shake_time
+    return None
+
+
+class Simulator:
+    """The MuJoCo scene of one hand, target and set of obstacles, compiled once; :meth:`simulate`
+    runs the procedure of the module documentation for one grasp.
+
+    Args:
+        hand: a :class:`pairgrasp.Hand` or the path of a hand spec.
+        target: a :class:`pairgrasp.Mesh` or a mesh path (metres), closed (its mass and inertia come
+            from its solid).
+        obstacles: meshes (or paths) in the target frame: the plan's obstacles and occluders.
+        params: :class:`SimParams`; keyword arguments override its fields.
+
+    Attributes:
+        spec: the ``mujoco.MjSpec`` (``spec.to_xml()`` gives the scene as MJCF).
+        model: the compiled ``mujoco.MjModel``.
+        counts: numbers of bodies, joints, equality constraints, actuators, geoms, convex pieces per
+            part, checked against the hand when the scene is built.
+        target_mass: kg.
+
+    Raises:
+        ImportError: MuJoCo is not installed.
+        ValueError: bad parameters, a target that is not closed, a DOF joint without an effort limit.
+    """
+
+    def __init__(self, hand, target, obstacles: Sequence = (), params: Optional[SimParams] = None, **overrides):
+        mujoco = import_mujoco()
+        self.params = with_overrides(SimParams, params, overrides, "simulation")
+        p = self.params
+        self.hand = hand if isinstance(hand, _core.Hand) else _core.load_hand(os.fspath(hand))
+        self.target = _as_mesh(target, "target")
+        self.obstacles = [_as_mesh(o, "obstacle") for o in obstacles]
+        if not self.target.closed:
+            raise ValueError("target: the mesh is not closed, so it has no solid to take mass and inertia from")
+        props = mass_properties(self.target, p.density)
+        self.target_mass = props.mass
+
+        spec = mujoco.MjSpec()
+        spec.modelname = f"pairgrasp_{self.hand.name}"
+        spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+        spec.compiler.autolimits = True
+        spec.compiler.degree = False                        # joint ranges in radians, as in the URDF
+        spec.option.timestep = p.timestep
+        spec.option.gravity = [0.0, 0.0, 0.0]
+        spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+        spec.option.impratio = p.impratio
+        spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+        self.counts = {"pieces": {}}
+        # contype/conaffinity: the hand (1) touches the target (2) and obstacles (4); the target
+        # touches the obstacles; nothing touches itself.
+        self._add_hand(spec, mujoco)
+        tb = spec.worldbody.add_body(name="target")
+        tb.add_freejoint(name="target_free")
+        tb.explicitinertial = True
+        tb.mass = props.mass
+        tb.ipos = props.center_of_mass
+        I = props.inertia
+        tb.fullinertia = [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]
+        n = self._add_pieces(spec, tb, "target", convex_pieces(self.target, threshold=p.convex_threshold),
+                             contype=2, conaffinity=1 | 4)
+        self.counts["pieces"]["target"] = n
+        self._obstacle_bodies = []
+        for k, mesh in enumerate(self.obstacles):
+            ob = spec.worldbody.add_body(name=f"obstacle_{k}", mocap=True)
+            n = self._add_pieces(spec, ob, f"obstacle_{k}", convex_pieces(mesh, threshold=p.convex_threshold),
+                                 contype=4, conaffinity=1 | 2)
+            self.counts["pieces"][f"obstacle_{k}"] = n
+            self._obstacle_bodies.append(ob.name)
+        self.spec = spec
+        self.model = spec.compile()
+        self._check_counts(mujoco)
+        m = self.model
+        self._target_body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "target")
+        self._target_qadr = m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "target_free")]
+        self._target_geoms = set(np.nonzero(m.geom_bodyid == self._target_body)[0].tolist())
+        self._palm_body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, self.hand.wrist_link)
+        self._mocap = [m.body_mocapid[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, b)] for b in self._obstacle_bodies]
+        self._qadr = {j: int(m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j)])
+                      for j in self.hand.joint_names}
+
+    # ----- scene construction -----
+
+    def _add_pieces(self, spec, body, name, pieces, contype, conaffinity) -> int:
+        mujoco = import_mujoco()
+        for k, piece in enumerate(pieces):
+            mname = f"{name}_{k}"
+            mesh = spec.add_mesh(name=mname)
+            mesh.uservert = np.asarray(piece, float).ravel().tolist()
+            mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+            g = body.add_geom(name=mname, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mname)
+            g.contype, g.conaffinity = contype, conaffinity
+            g.condim = 3
+            g.friction = [self.params.friction, 0.0, 0.0]
+            g.solref = [self.params.contact_timeconst, 1.0]
+            g.solimp = [min(0.9, self.params.contact_dmax), self.params.contact_dmax, 0.001, 0.5, 2.0]
+        return len(pieces)
+
+    def _add_hand(self, spec, mujoco) -> None:
+        h, p = self.hand, self.params
+        joints = h.joints
+        links = {link.name: link for link in h.links}
+        bodies = {}
+        root = h.link_names[0]
+        bodies[root] = spec.worldbody.add_body(name=root)          # fixed in the world: the hand's frame
+        for j in joints:                                            # depth-first: parents come first
+            b = bodies[j.parent_link].add_body(name=j.child_link)
+            b.pos = j.origin[:3, 3]
+            b.quat = _quat(j.origin[:3, :3])
+            bodies[j.child_link] = b
+            if j.type == _core.JointType.fixed:
+                continue
+            mj = b.add_joint(name=j.name)
+            mj.type = mujoco.mjtJoint.mjJNT_SLIDE if j.type == _core.JointType.prismatic else mujoco.mjtJoint.mjJNT_HINGE
+            mj.axis = j.axis
+            if j.limited:
+                mj.limited = mujoco.mjtLimited.mjLIMITED_TRUE
+                mj.range = [j.lower, j.upper]
+            if j.effort > 0 and j.velocity > 0:
+                mj.damping = [p.effort_scale * j.effort / j.velocity, 0.0, 0.0]   # linear term only
+        for name, b in bodies.items():
+            self._set_link_inertia(b, name, links.get(name))
+            if name in links:
+                n = self._add_pieces(spec, b, name, convex_pieces(links[name].mesh, threshold=p.convex_threshold),
+                                     contype=1, conaffinity=0)
+                self.counts["pieces"][name] = n
+        # Couplings: a DOF's joints after its first, and URDF mimic joints, as joint equalities
+        # q = c0 + c1 q_master.
+        self._couplings = []
+        for dof in h.dofs:
+            j0 = dof.joints[0]
+            for jk in dof.joints[1:]:
+                c1 = jk.ratio / j0.ratio
+                self._couplings.append((jk.joint, j0.joint, jk.offset - c1 * j0.offset, c1))
+        for j in joints:
+            if j.mimic_joint:
+                self._couplings.append((j.name, j.mimic_joint, j.offset, j.multiplier))
+        for slave, master, c0, c1 in self._couplings:
+            e = spec.add_equality(name=f"couple_{slave}")
+            e.type = mujoco.mjtEq.mjEQ_JOINT
+            e.objtype = mujoco.mjtObj.mjOBJ_JOINT
+            e.name1, e.name2 = slave, master
+            data = np.zeros(len(e.data))
+            data[:2] = c0, c1                                   # polycoef: q1 = c0 + c1 q2
+            e.data = data
+            e.solref = [0.005, 1.0]
+        # One position actuator per DOF on its first joint, force bounded by the joint's effort.
+        by_name = {j.name: j for j in joints}
+        self._actuated = []
+        for dof in h.dofs:
+            j0 = dof.joints[0]
+            uj = by_name[j0.joint]
+            if not uj.effort > 0:
+                raise ValueError(f"{h.urdf_path}: joint '{uj.name}' (DOF {dof.name}) has no <limit effort>, so its "
+                                 f"actuator force cannot be bounded")
+            force = p.effort_scale * uj.effort
+            span = abs(j0.ratio) * (dof.upper - dof.lower)          # the DOF's range in joint units
+            a = spec.add_actuator(name=f"dof_{dof.name}", target=j0.joint)
+            a.trntype = mujoco.mjtTrn.mjTRN_JOINT
+            a.set_to_position(kp=force / (p.hold_fraction * max(span, 1e-9)))
+            a.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+            a.forcerange = [-force, force]
+            self._actuated.append((dof, j0))
+
+    def _set_link_inertia(self, body, name, link):
+        body.explicitinertial = True
+        inertial = self.hand.inertial(name)
+        if inertial.present and inertial.mass > 0:
+            F = inertial.frame
+            body.mass = inertial.mass
+            body.ipos = F[:3, 3]
+            I = F[:3, :3] @ inertial.inertia @ F[:3, :3].T
+        else:
+            mp = None
+            if link is not None:
+                mesh = link.mesh if link.mesh.closed else None
+                try:
+                    if mesh is not None:
+                        mp = mass_properties(mesh, self.params.hand_density)
+                    else:
+                        mp = _hull_mass_properties(link.mesh.vertices, self.params.hand_density)
+                except ValueError:
+                    mp = None
+            if mp is None:   # no geometry: a 1 g point mass with the inertia of a 1 cm sphere
+                body.mass, body.ipos, I = 1e-3, np.zeros(3), np.eye(3) * 0.4 * 1e-3 * 0.01 ** 2
+            else:
+                body.mass, body.ipos, I = mp.mass, mp.center_of_mass, mp.inertia
+        # MuJoCo needs a positive definite tensor that satisfies the triangle inequality.
+        w = np.linalg.eigvalsh(I)
+        floor = 1e-9 + 1e-3 * w.max()
+        I = I + np.eye(3) * max(0.0, floor - w.min())
+        body.fullinertia = [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]
+
+    def _check_counts(self, mujoco):
+        m, h = self.model, self.hand
+        movable = [j for j in h.joints if j.type != _core.JointType.fixed]
+        mimics = sum(1 for j in h.joints if j.mimic_joint)
+        extra = sum(len(d.joints) - 1 for d in h.dofs)
+        expected = {"bodies": len(h.link_names) + 1 + len(self.obstacles) + 1, "joints": len(movable) + 1,
+                    "equalities": mimics + extra, "actuators": len(h.dofs)}
+        got = {"bodies": m.nbody, "joints": m.njnt, "equalities": m.neq, "actuators": m.nu}
+        if got != expected:
+            raise RuntimeError(f"MuJoCo scene: expected {expected}, compiled {got}")
+        for j in movable:
+            k = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name)
+            if j.limited and (not m.jnt_limited[k] or not np.allclose(m.jnt_range[k], [j.lower, j.upper])):
+                raise RuntimeError(f"MuJoCo scene: joint {j.name} lost its URDF limits")
+        self.counts.update(got, geoms=int(m.ngeom), mimics=mimics, dof_couplings=extra)
+
+    # ----- simulation -----
+
+    def simulate(self, wrist_pose, dofs, friction: Optional[float] = None, density: Optional[float] = None
+                 ) -> SimResult:
+        """Closes the hand at ``wrist_pose`` (wrist frame in the target frame, 4x4) from ``dofs``
+        (the planned closed DOF values, opened by ``open_fraction`` first), loads and shakes the
+        grasp, and returns the outcome. ``friction`` and ``density`` override the parameters for
+        this run (for robustness trials).
+
+        Raises:
+            ValueError: a pose that is not rigid, DOF values of the wrong size or out of the limits.
+        """
+        mujoco = import_mujoco()
+        t_wall = time.perf_counter()
+        p, h, m = self.params, self.hand, self.model
+        W = _as_pose(wrist_pose, "wrist_pose")
+        q = np.asarray(dofs, float).reshape(-1)
+        lo, hi = np.asarray(h.dof_lower, float), np.asarray(h.dof_upper, float)
+        h.joint_values(q)                                   # size, finiteness and limits, named errors
+        dirs = np.asarray(_core.closing_directions(h, q), float).reshape(-1)
+        start = np.clip(q - dirs * p.open_fraction * (hi - lo), lo, hi)
+        goal = np.where(dirs > 0, 2 * hi - lo, np.where(dirs < 0, 2 * lo - hi, q))   # one range past the limit
+
+        # The hand's root frame is the world: objects in the target frame are placed by inv(root in target).
+        root_in_target = W @ np.linalg.inv(np.asarray(h.root_to_wrist, float))
+        to_world = np.linalg.inv(root_in_target)
+        Rw = to_world[:3, :3]
+        d = mujoco.MjData(m)
+        saved = self._override(friction, density)
+        try:
+            for name, v in h.joint_values(start).items():
+                d.qpos[self._qadr[name]] = v
+            a = self._target_qadr
+            d.qpos[a:a + 3] = to_world[:3, 3]
+            d.qpos[a + 3:a + 7] = _quat(Rw)
+            for mid in self._mocap:
+                d.mocap_pos[mid] = to_world[:3, 3]
+                d.mocap_quat[mid] = _quat(Rw)
+            for k, (dof, j0) in enumerate(self._actuated):
+                i = h.dof_names.index(dof.name)
+                d.ctrl[k] = j0.ratio * goal[i] + j0.offset
+            mujoco.mj_forward(m, d)
+            n_close = int(round(p.close_time / p.timestep))
+            m.opt.gravity[:] = 0.0
+            T0 = self._relative(d)
+            for _ in range(n_close):
+                mujoco.mj_step(m, d)
+            # MuJoCo resets a diverged state to the initial one and counts a warning: both are failures
+            bad = mujoco.mjtWarning.mjWARN_BADQACC
+            warned = 0
+            unstable = not np.isfinite(d.qpos).all() or d.warning[bad].number > warned
+            T1 = self._relative(d) if not unstable else T0
+            closing_t = float(np.linalg.norm(T1[:3, 3] - T0[:3, 3]))
+            closing_r = _rotation_angle(T0[:3, :3].T @ T1[:3, :3])
+            touching = self._touching(d)
+            for mid in self._mocap:                         # lift: the obstacles go away
+                d.mocap_pos[mid] = [1e3, 1e3, 1e3]
+            slip_t = slip_r = 0.0
+            outcome = "held"
+            t = 0.0
+            check_every = max(1, int(round(0.005 / p.timestep)))
+            step = 0
+            while not unstable:
+                g = load_profile(p, t)
+                if g is None:
+                    break
+                m.opt.gravity[:] = Rw @ g
+                mujoco.mj_step(m, d)
+                t += p.timestep
+                step += 1
+                if step % check_every == 0:
+                    if not np.isfinite(d.qpos).all() or d.warning[bad].number > warned:
+                        unstable = True
+                        break
+                    T = self._relative(d)
+                    slip_t = max(slip_t, float(np.linalg.norm(T[:3, 3] - T1[:3, 3])))
+                    slip_r = max(slip_r, _rotation_angle(T1[:3, :3].T @ T[:3, :3]))
+                    if slip_t > 5 * p.max_translation or slip_r > 5 * p.max_rotation:
+                        outcome = "dropped"
+                        break
+            if unstable:
+                outcome, slip_t, slip_r = "unstable", math.inf, math.inf
+            elif outcome == "held" and (slip_t > p.max_translation or slip_r > p.max_rotation):
+                outcome = "slipped"
+        finally:
+            self._restore(saved)
+            m.opt.gravity[:] = 0.0
+        return SimResult(success=outcome == "held", outcome=outcome, slip_translation=slip_t, slip_rotation=slip_r,
+                         closing_translation=closing_t, closing_rotation=closing_r, contact_links=touching,
+                         time_simulated=p.close_time + t, wall_time=time.perf_counter() - t_wall)
+
+    def _override(self, friction, density):
+        m = self.model
+        saved = (m.geom_friction.copy(), m.body_mass.copy(), m.body_inertia.copy())
+        if friction is not None:
+            if not (np.isfinite(friction) and friction >= 0):
+                raise ValueError(f"friction: expected a finite number >= 0, got {friction!r}")
+            m.geom_friction[:, 0] = friction
+        if density is not None:
+            if not (np.isfinite(density) and density > 0):
+                raise ValueError(f"density: expected a finite number > 0, got {density!r}")
+            s = density / self.params.density
+            m.body_mass[self._target_body] *= s
+            m.body_inertia[self._target_body] *= s
+            self._set_const()
+        return saved + (density is not None,)
+
+    def _restore(self, saved):
+        m = self.model
+        m.geom_friction[:], m.body_mass[:], m.body_inertia[:] = saved[:3]
+        if saved[3]:
+            self._set_const()
+
+    def _set_const(self):
+        """Recomputes the constants MuJoCo derives from the masses (the constraints' mass scaling)."""
+        mujoco = import_mujoco()
+        mujoco.mj_setConst(self.model, mujoco.MjData(self.model))
+
+    def _relative(self, d) -> np.ndarray:
+        """Pose of the target's body frame in the palm frame, with the centre of mass as translation."""
+        b, w = self._target_body, self._palm_body
+        Rp = d.xmat[w].reshape(3, 3)
+        Ro = d.xmat[b].reshape(3, 3)
+        T = np.eye(4)
+        T[:3, :3] = Rp.T @ Ro
+        T[:3, 3] = Rp.T @ (d.xipos[b] - d.xpos[w])
+        return T
+
+    def _touching(self, d) -> tuple:
+        m = self.model
+        mujoco = import_mujoco()
+        links = set()
+        for c in d.contact[: d.ncon]:
+            g1, g2 = int(c.geom1), int(c.geom2)
+            if (g1 in self._target_geoms) != (g2 in self._target_geoms):
+                other = g2 if g1 in self._target_geoms else g1
+                body = m.geom_bodyid[other]
+                name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, body)
+                if not name.startswith("obstacle_"):
+                    links.add(name)
+        return tuple(sorted(links))
+
+
+def _hull_mass_properties(vertices, density):
+    from scipy.spatial import ConvexHull
+
+    V = np.asarray(vertices, float)
+    hull = ConvexHull(V)
+    F = hull.simplices.copy()
+    c = V[hull.vertices].mean(axis=0)
+    a, b, cc = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    flip = np.einsum("ij,ij->i", np.cross(b - a, cc - a), a - c) < 0
+    F[flip] = F[flip][:, ::-1]
+    return mass_properties((V, F), density)
+
+
+@dataclass
+class SimReport:
+    """What :func:`simulate_grasps` returns: the results of the simulated grasps (file order), their
+    ranks and epsilons, the simulator's scene counts and the path written."""
+
+    results: List[SimResult]
+    ranks: List[int]
+    epsilons: List[float]
+    counts: dict
+    params: SimParams
+    path: str
+    picture: Optional[str]
+
+
+def _resolve(path, base, where) -> str:
+    if not isinstance(path, str) or path == "<mesh>":
+        raise _core.FileError(f"{where}: the plan did not record a file ({path!r}); pass it explicitly")
+    for cand in (path, os.path.join(base, path)):
+        if os.path.isfile(cand):
+            return cand
+    raise _core.FileError(f"{where}: no such file: {path}")
+
+
+def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, params: Optional[SimParams] = None,
+                    picture: bool = True, progress=None, **overrides) -> SimReport:
+    """Simulates the first ``top`` grasps of a grasps.json file and writes each outcome into it, as
+    ``grasps[i].simulation`` (:meth:`SimResult.to_dict`) with the parameters under the top-level
+    ``simulation`` key, and a picture of epsilon against the outcome beside it
+    (``simulation.png``).
+
+    The hand, target, obstacles and occluders are those recorded in the file's ``inputs`` (paths
+    relative to the current folder or to the file's folder), unless ``hand`` / ``target`` are given.
+    Nothing is written unless every grasp was simulated.
+
+    Raises:
+        pairgrasp.FileError: a missing or malformed grasps file, or a recorded input that is missing.
+        ValueError: ``top`` < 1, a hand other than the one the grasps were planned for, bad parameters.
+        ImportError: MuJoCo is not installed.
+    """
+    from .grasps_file import load_grasps, parse_grasps, write_grasps
+
+    import_mujoco()
+    path = os.fspath(path)
+    if top is not None and (isinstance(top, bool) or not isinstance(top, int) or top < 1):
+        raise ValueError(f"top: expected an integer >= 1, got {top!r}")
+    gf = load_grasps(path)
+    base = os.path.dirname(os.path.abspath(path))
+    inputs = gf.inputs
+    if hand is None:
+        hand = _core.load_hand(_resolve(inputs.get("hand_spec"), base, f"{path}: inputs.hand_spec"))
+    elif not isinstance(hand, _core.Hand):
+        hand = _core.load_hand(os.fspath(hand))
+    planned_for = inputs.get("hand")
+    if planned_for is not None and planned_for != hand.name:
+        raise ValueError(f"{path}: the grasps were planned for hand '{planned_for}', not '{hand.name}'")
+    gf = parse_grasps(gf.document, path, hand)          # DOF counts and limits against this hand
+    scale = float(inputs.get("scale", 1.0))
+    if target is None:
+        target = _core.load_mesh(_resolve(inputs.get("target"), base, f"{path}: inputs.target"), scale=scale)
+    elif not isinstance(target, _core.Mesh):
+        target = _core.load_mesh(os.fspath(target), scale=scale)
+    if len(target.faces) != inputs.get("target_faces", len(target.faces)):
+        raise ValueError(f"{path}: the grasps were planned on a target of {inputs['target_faces']} faces, "
+                         f"this one has {len(target.faces)}")
+    others = []
+    for key in ("obstacles", "occluders"):
+        for k, o in enumerate(inputs.get(key, []) or []):
+            others.append(_core.load_mesh(_resolve(o, base, f"{path}: inputs.{key}[{k}]"), scale=scale))
+    grasps = gf.grasps if top is None else gf.grasps[:top]
+    sim = Simulator(hand, target, others, params=params, **overrides)
+    results = []
+    for k, g in enumerate(grasps):
+        results.append(sim.simulate(g.wrist_pose, g.dofs))
+        if progress:
+            progress(k + 1, len(grasps), results[-1])
+    doc = gf.document
+    for g, r in zip(doc["grasps"], results):
+        g["simulation"] = r.to_dict()
+    doc["simulation"] = {"engine": f"mujoco {import_mujoco().__version__}", "parameters": asdict(sim.params),
+                         "target_mass": round(sim.target_mass, 9), "simulated": len(results),
+                         "scene": {k: v for k, v in sim.counts.items()}}
+    out_png = None
+    tmp_png = None
+    if picture:
+        from .render import simulation_figure
+
+        out_png = os.path.join(base, "simulation.png")
+        tmp_png = out_png + ".part.png"
+        simulation_figure([g.epsilon for g in grasps], results, sim.params, tmp_png,
+                          title=f"{hand.name} on {os.path.basename(str(inputs.get('target', 'target')))}")
+    try:
+        write_grasps(path, doc)
+        if tmp_png:
+            os.replace(tmp_png, out_png)
+    finally:
+        if tmp_png and os.path.exists(tmp_png):
+            os.remove(tmp_png)
+    return SimReport(results=results, ranks=[g.rank for g in grasps], epsilons=[g.epsilon for g in grasps],
+                     counts=sim.counts, params=sim.params, path=path, picture=out_png)
