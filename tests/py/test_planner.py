@@ -3,6 +3,7 @@ parameter errors, contact reduction and the MDS projection of Figure 7."""
 import dataclasses
 import math
 import pathlib
+import time
 
 import numpy as np
 import pytest
@@ -122,6 +123,18 @@ def test_grid_schedule_runs_every_sample(jaw_planner):
     r = jaw_planner.plan(schedule="grid", progress=False, fine_tune=0)
     n = len(pg.dof_grid(jaw_planner.hand.dof_lower, jaw_planner.hand.dof_upper, jaw_planner.hand.dof_step)[0])
     assert r.counts["samples"] == n and r.counts["rejected"] == 0
+
+
+def test_candidate_times_lie_in_the_evaluate_stage(jaw_planner):
+    """Each candidate's time (from the start of plan()) falls after the stages that precede its
+    evaluation (one stage on the grid) and within the wall time the caller measures."""
+    t0 = time.perf_counter()
+    r = jaw_planner.plan(schedule="grid", progress=False, fine_tune=0)
+    wall = time.perf_counter() - t0
+    times = [c.time for c in r.candidates]
+    before = r.timings["schedule"] + r.timings["align"] + r.timings["settle"]
+    assert times and min(times) >= before
+    assert max(times) <= min(wall, before + r.timings["evaluate"] + 0.05)
 
 
 # ----------------------------------------------------------------------------- early rejection
