@@ -236,7 +236,9 @@ def run_versor(args) -> dict:
     exe = args.versor_exe or os.path.join(ROOT, "build", "bench", "bench", "bench_versor")
     if not os.path.isfile(exe):
         raise SystemExit(f"bench_peers: error: {exe} not found; build it with `make bench`")
-    r = subprocess.run([exe, "--benchmark_min_time=0.2s"], capture_output=True, text=True, check=True)
+    r = subprocess.run([exe], capture_output=True, text=True)
+    if r.returncode != 0:
+        raise SystemExit(f"bench_peers: error: {exe} failed: {(r.stderr or r.stdout).strip().splitlines()[-1:]}")
     return {"output": r.stdout, "stderr": r.stderr}
 
 
