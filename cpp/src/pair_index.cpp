@@ -473,8 +473,17 @@ TargetIndex build_target_index(const Mesh& mesh, double edge, const Mask& free_f
                                const PairIndexOptions& options) {
   if (edge == 0.0) edge = suggest_edge(mesh, options.d_max, options.max_pairs, free_faces);
   UnitFacets facets = tessellate(mesh, edge, free_faces);
-  PairIndex index(facets.points, facets.normals, facets.free, options);
-  return TargetIndex{std::move(facets), std::move(index)};
+  try {
+    PairIndex index(facets.points, facets.normals, facets.free, options);
+    return TargetIndex{std::move(facets), std::move(index)};
+  } catch (const BudgetError& e) {
+    // Refused before any pair was stored; name the edge that fits (tessellated and counted).
+    facets = UnitFacets();
+    // Rounded up to 0.1 micrometre: a coarser edge, so the edge printed fits too.
+    const double fit = std::ceil(suggest_edge(mesh, options.d_max, options.max_pairs, free_faces) * 1e7) / 1e7;
+    throw BudgetError("edge: " + fmt(edge) + " m: " + e.what() + "; suggest_edge gives " + fmt(fit, 7) +
+                      " m for this mesh");
+  }
 }
 
 }  // namespace pairgrasp

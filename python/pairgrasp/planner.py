@@ -237,7 +237,8 @@ class Grasp:
 
 @dataclass(frozen=True)
 class Candidate:
-    """An evaluated candidate (for Figure 8): its sample index, Q_A, votes and outcome."""
+    """An evaluated candidate (for Figure 8): its sample index, Q_A, votes and outcome, and ``time``:
+    seconds from the start of :meth:`Planner.plan` until its evaluation finished (index excluded)."""
 
     sample: int
     alignment_quality: float
@@ -245,6 +246,7 @@ class Candidate:
     epsilon: float
     force_closure: bool
     settled: str  # "aligned" or "adjusted" (see Planner._settle)
+    time: float = 0.0
 
 
 @dataclass
@@ -364,6 +366,7 @@ class _Cand:
     search: Optional[list] = None
     settled: str = ""
     evaluation: object = None
+    time: float = 0.0
 
 
 def with_overrides(cls, params, overrides: dict, what: str):
@@ -585,6 +588,7 @@ class Planner:
                 raise ValueError(f"{k}: fixed when the Planner is built; build a new Planner to change it")
             setattr(p, k, v)
         p.validate()
+        start = time.perf_counter()  # candidates' evaluation times are measured from here
         bar = _Progress(progress)
         timings = {"index": self.setup_time}
         counts = {"unit_facets": int(len(self.tindex.facets.points)), "stored_pairs": int(len(self.tindex.index.pairs)),
@@ -633,7 +637,7 @@ class Planner:
             counts["settled_aligned"] += sum(c.settled == "aligned" for c in settled)
             stage_t["settle"] += time.perf_counter() - t
             t = time.perf_counter()
-            done = self._evaluate(settled, len(cands), seen, p, bar)
+            done = self._evaluate(settled, len(cands), seen, p, bar, start)
             counts["evaluated"] += len(done)
             stage_t["evaluate"] += time.perf_counter() - t
             cands.extend(done)
@@ -676,7 +680,7 @@ class Planner:
         timings["total"] = sum(timings.values())
         records = [Candidate(sample=c.sample, alignment_quality=c.quality, votes=c.votes,
                              epsilon=float(c.evaluation.epsilon), force_closure=bool(c.evaluation.force_closure),
-                             settled=c.settled) for c in cands]
+                             settled=c.settled, time=c.time) for c in cands]
         return PlanResult(grasps=grasps, candidates=records, timings=timings, counts=counts, edge=self.edge,
                           d_max=self.d_max, constellation=self.mode, spacing=self.spacing, params=p,
                           inputs=dict(self.inputs))
@@ -899,7 +903,7 @@ class Planner:
         dof = tuple(np.floor(c.start_dofs / half + 0.5).astype(int))
         return pos + rot + dof
 
-    def _evaluate(self, settled: List[_Cand], n_before: int, seen: set, p, bar) -> List[_Cand]:
+    def _evaluate(self, settled: List[_Cand], n_before: int, seen: set, p, bar, start: float) -> List[_Cand]:
         steps = self.steps(p.step)
         order = sorted(range(len(settled)), key=lambda k: (-settled[k].quality, k))
         todo = []
@@ -916,8 +920,10 @@ class Planner:
         bar.start("evaluate", len(todo))
 
         def one(c):
-            return evaluate_grasp(self.checker, c.start_pose, c.start_dofs, center=self.center, radius=self.radius,
-                                  mu=p.mu, edges=p.edges, contacts_per_link=p.contacts_per_link)
+            ev = evaluate_grasp(self.checker, c.start_pose, c.start_dofs, center=self.center, radius=self.radius,
+                                mu=p.mu, edges=p.edges, contacts_per_link=p.contacts_per_link)
+            c.time = time.perf_counter() - start
+            return ev
 
         workers = p.threads or (os.cpu_count() or 1)
         with ThreadPoolExecutor(max_workers=workers) as pool:

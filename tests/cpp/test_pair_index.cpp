@@ -401,3 +401,30 @@ TEST(SuggestEdge, FinestEdgeThatFitsTheBudget) {
   EXPECT_EQ(t.index.size(), pairs);
   EXPECT_EQ(t.index.points(), t.facets.points);
 }
+
+TEST(BuildTargetIndex, RefusedEdgeNamesTheEdgeThatFits) {
+  // An icosphere of radius 5 cm at a 2 mm edge: ~7,000 facets, every pair within d_max = 0.2,
+  // ~2.5e7 pairs against a budget of 2e5.
+  const Mesh m = icosphere(0.05, 3);
+  PairIndexOptions o;
+  o.d_max = 0.2;
+  o.max_pairs = 200000;
+  std::string msg;
+  try {
+    build_target_index(m, 0.002, Mask(), o);
+    FAIL() << "no BudgetError";
+  } catch (const BudgetError& e) {
+    msg = e.what();
+  }
+  EXPECT_EQ(msg.rfind("edge: 0.002 m: max_pairs: ", 0), 0u) << msg;
+  std::smatch match;
+  ASSERT_TRUE(std::regex_search(msg, match, std::regex("suggest_edge gives ([0-9.e-]+) m"))) << msg;
+  const double fit = std::stod(match[1]);
+  const double suggested = suggest_edge(m, 0.2, o.max_pairs);
+  EXPECT_GE(fit, suggested);
+  EXPECT_LE(fit, suggested + 1e-7);
+  // The named edge (rounded up to 0.1 um) is accepted and fits the budget.
+  const TargetIndex t = build_target_index(m, fit, Mask(), o);
+  EXPECT_LE(t.index.size(), o.max_pairs);
+  EXPECT_GT(t.index.size(), o.max_pairs / 2);
+}

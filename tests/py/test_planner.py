@@ -3,6 +3,7 @@ parameter errors, contact reduction and the MDS projection of Figure 7."""
 import dataclasses
 import math
 import pathlib
+import time
 
 import numpy as np
 import pytest
@@ -137,6 +138,18 @@ def test_link_groups_follow_the_kinematic_tree():
         assert moved == {f"bh_{finger}_prox", f"bh_{finger}_dist"}
     spread = {n for n, m in zip(names, pl.dof_links[0]) if m}
     assert {"bh_f1_knuckle", "bh_f2_knuckle"} <= spread and "bh_f3_knuckle" not in spread
+
+
+def test_candidate_times_lie_in_the_evaluate_stage(jaw_planner):
+    """Each candidate's time (from the start of plan()) falls after the stages that precede its
+    evaluation (one stage on the grid) and within the wall time the caller measures."""
+    t0 = time.perf_counter()
+    r = jaw_planner.plan(schedule="grid", progress=False, fine_tune=0)
+    wall = time.perf_counter() - t0
+    times = [c.time for c in r.candidates]
+    before = r.timings["schedule"] + r.timings["align"] + r.timings["settle"]
+    assert times and min(times) >= before
+    assert max(times) <= min(wall, before + r.timings["evaluate"] + 0.05)
 
 
 # ----------------------------------------------------------------------------- early rejection

@@ -94,7 +94,8 @@ struct TargetIndex {
 };
 
 /// Tessellates `mesh` at `edge` (metres; 0: suggest_edge(mesh, options.d_max, options.max_pairs))
-/// and indexes the pairs of its free facets.
+/// and indexes the pairs of its free facets. A given edge whose pairs exceed the budget throws
+/// BudgetError before any pair is stored, naming the edge and the one suggest_edge() finds.
 TargetIndex build_target_index(const Mesh& mesh, double edge, const Mask& free_faces = Mask(),
                                const PairIndexOptions& options = {});
 
