@@ -66,7 +66,8 @@ def _planner_from_args(args, **extra):
         if path is not None and not os.path.isfile(path):
             raise ValueError(f"{name}: no such file: {path}")
     target = pg.load_mesh(args.target, scale=args.scale)
-    params = dict(schedule=args.schedule, step=args.step, top=args.top, seed=args.seed, threads=args.threads)
+    params = dict(schedule=args.schedule, step=args.step, top=args.top, seed=args.seed, threads=args.threads,
+                  time_limit=args.time_limit)
     if args.edge is not None:
         params["edge"] = args.edge
     params.update(extra)
@@ -231,6 +232,8 @@ def _add_plan_arguments(p, output_help: str):
     p.add_argument("--schedule", choices=("grid", "fast"), default="fast", help="DOF schedule (default fast)")
     p.add_argument("--step", type=_positive_float, help="DOF sampling step (rad; default the hand's)")
     p.add_argument("--edge", type=_positive_float, help="unit-facet edge h (m; default automatic)")
+    p.add_argument("--time-limit", type=_positive_float, metavar="S",
+                   help="stop searching after S seconds and return the best grasps so far (default: no limit)")
     p.add_argument("--top", type=_count(1), default=10, help="grasps kept (default 10)")
     p.add_argument("--seed", type=_count(0), default=0, help="seed of the fine-tuning (default 0)")
     p.add_argument("--threads", type=_count(0), default=0, help="worker threads (default 0: every core)")

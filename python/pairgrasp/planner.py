@@ -100,7 +100,15 @@ class PlanParams:
         gap: contact gap (m).
         backoff: largest back-off along the approach axis when settling (m); None: the hand's
             reach (the largest distance of a constellation sample from the wrist) / 2.
-        max_evaluations: candidates closed and scored at most, best Q_A first (None: all).
+        max_evaluations: candidates closed and scored at most, best Q_A first within each chunk
+            (None: all).
+        chunk: DOF samples aligned, settled and evaluated together; grasps come out chunk by chunk
+            (results do not depend on the thread count, they do on the chunk).
+        time_limit: seconds after which no further chunk is searched and no further grasp is
+            fine-tuned (an anytime plan for on-line use; None: no limit). The chunk under way, the
+            ranking and the final scoring of the returned grasps still finish, and samples left
+            out are counted as ``skipped``. A plan that hits the limit depends on the machine's
+            speed, so it is not reproducible the way a plan without one is.
         fine_tune: how many of the best grasps are fine-tuned.
         fine_tune_iterations: trials per fine-tuned grasp.
         contacts_per_link: while searching, epsilon is computed from at most this many contacts per
@@ -130,6 +138,8 @@ class PlanParams:
     gap: float = 0.001
     backoff: Optional[float] = None
     max_evaluations: Optional[int] = None
+    chunk: int = 128
+    time_limit: Optional[float] = None
     fine_tune: int = 5
     fine_tune_iterations: int = 20
     contacts_per_link: Optional[int] = 6
@@ -145,7 +155,7 @@ class PlanParams:
             raise ValueError(f"schedule: expected 'grid' or 'fast', got {self.schedule!r}")
         if self.constellation not in ("auto", "per_link", "area"):
             raise ValueError(f"constellation: expected 'auto', 'per_link' or 'area', got {self.constellation!r}")
-        for name in ("step", "edge", "d_max", "spacing", "backoff", "depth_tolerance"):
+        for name in ("step", "edge", "d_max", "spacing", "backoff", "depth_tolerance", "time_limit"):
             v = getattr(self, name)
             if v is not None:
                 _positive(name, v, allow_zero=name in ("backoff", "depth_tolerance"))
@@ -154,7 +164,7 @@ class PlanParams:
         if not (isinstance(self.min_match_fraction, numbers.Real) and 0.0 <= self.min_match_fraction <= 1.0):
             raise ValueError(f"min_match_fraction: expected a number in [0, 1], got {self.min_match_fraction!r}")
         for name, low in (("max_pairs", 1), ("max_area_samples", 3), ("poses_per_sample", 1),
-                          ("coarse_factor", 1), ("refine", 0), ("fine_tune", 0), ("fine_tune_iterations", 0),
+                          ("coarse_factor", 1), ("refine", 0), ("chunk", 1), ("fine_tune", 0), ("fine_tune_iterations", 0),
                           ("edges", 3), ("top", 1), ("seed", 0), ("threads", 0)):
             _integer(name, getattr(self, name), low)
         if self.max_evaluations is not None:
@@ -593,7 +603,7 @@ class Planner:
         timings = {"index": self.setup_time}
         counts = {"unit_facets": int(len(self.tindex.facets.points)), "stored_pairs": int(len(self.tindex.index.pairs)),
                   "samples": 0, "rejected": 0, "aligned_samples": 0, "aligned_poses": 0, "settled": 0,
-                  "settled_aligned": 0, "evaluated": 0, "force_closure": 0}
+                  "settled_aligned": 0, "evaluated": 0, "force_closure": 0, "skipped": 0}
         lo = np.asarray(self.hand.dof_lower, float)
         hi = np.asarray(self.hand.dof_upper, float)
         steps = self.steps(p.step)
@@ -607,7 +617,10 @@ class Planner:
 
         best_fraction = [None]
 
-        def run_stage(index_tuples):
+        def out_of_time() -> bool:
+            return p.time_limit is not None and time.perf_counter() - start >= p.time_limit
+
+        def run_stage(index_tuples, label):
             t = time.perf_counter()
             qs = [np.array([axes[d][k] for d, k in enumerate(idx)]) for idx in index_tuples]
             counts["samples"] += len(qs)
@@ -626,31 +639,44 @@ class Planner:
             kept = [q for q, k in zip(qs, keep) if k]
             counts["rejected"] += len(qs) - len(kept)
             stage_t["schedule"] += time.perf_counter() - t
-            t = time.perf_counter()
-            new = self._align(kept, samples, p, bar)
-            counts["aligned_samples"] += len(kept)
-            counts["aligned_poses"] += len(new)
-            stage_t["align"] += time.perf_counter() - t
-            t = time.perf_counter()
-            settled = self._settle(new, bar)
-            counts["settled"] += len(settled)
-            counts["settled_aligned"] += sum(c.settled == "aligned" for c in settled)
-            stage_t["settle"] += time.perf_counter() - t
-            t = time.perf_counter()
-            done = self._evaluate(settled, len(cands), seen, p, bar, start)
-            counts["evaluated"] += len(done)
-            stage_t["evaluate"] += time.perf_counter() - t
-            cands.extend(done)
+            # Align, settle and evaluate a chunk of samples at a time, so that grasps come out early
+            # and a time limit stops the search between chunks.
+            done: List[_Cand] = []
+            quiet = _Progress(False)
+            bar.start(label, len(kept))
+            for b in range(0, len(kept), p.chunk):
+                if out_of_time():
+                    counts["skipped"] += len(kept) - b
+                    break
+                chunk = kept[b:b + p.chunk]
+                t = time.perf_counter()
+                new = self._align(chunk, samples, p, quiet)
+                counts["aligned_samples"] += len(chunk)
+                counts["aligned_poses"] += len(new)
+                stage_t["align"] += time.perf_counter() - t
+                t = time.perf_counter()
+                settled = self._settle(new, quiet)
+                counts["settled"] += len(settled)
+                counts["settled_aligned"] += sum(c.settled == "aligned" for c in settled)
+                stage_t["settle"] += time.perf_counter() - t
+                t = time.perf_counter()
+                ev = self._evaluate(settled, len(cands), seen, p, quiet, start)
+                counts["evaluated"] += len(ev)
+                stage_t["evaluate"] += time.perf_counter() - t
+                cands.extend(ev)
+                done.extend(ev)
+                bar.advance(len(chunk))
+            bar.finish()
             return done
 
         shape = [len(a) for a in axes]
         if p.schedule == "grid":
-            run_stage(list(itertools.product(*[range(n) for n in shape])))
+            run_stage(list(itertools.product(*[range(n) for n in shape])), "grid")
         else:
             f = p.coarse_factor
             coarse_axes = [sorted(set(list(range(0, n, f)) + [n - 1])) for n in shape]
             coarse = list(itertools.product(*coarse_axes))
-            done = run_stage(coarse)
+            done = run_stage(coarse, "coarse")
             # Seeds: coarse samples ranked by their best candidate (force closure, epsilon, Q_A).
             best: Dict[int, tuple] = {}
             for c in done:
@@ -669,12 +695,15 @@ class Planner:
                     if idx not in scheduled:
                         scheduled.add(idx)
                         fine.append(idx)
-            if fine:
-                run_stage(fine)
+            if fine and not out_of_time():
+                run_stage(fine, "refine")
+            elif fine:
+                counts["samples"] += len(fine)
+                counts["skipped"] += len(fine)
         timings.update(stage_t)
 
         t = time.perf_counter()
-        grasps = self._rank_and_tune(cands, p, bar)
+        grasps = self._rank_and_tune(cands, p, bar, out_of_time)
         timings["fine_tune"] = time.perf_counter() - t
         counts["force_closure"] = sum(1 for c in cands if c.evaluation.force_closure)
         timings["total"] = sum(timings.values())
@@ -933,7 +962,7 @@ class Planner:
         bar.finish()
         return todo
 
-    def _rank_and_tune(self, cands: List[_Cand], p, bar) -> List[Grasp]:
+    def _rank_and_tune(self, cands: List[_Cand], p, bar, out_of_time) -> List[Grasp]:
         def key(c):
             e = c.evaluation
             return (not e.pruned, bool(e.force_closure), float(e.epsilon), c.quality, c.votes)
@@ -945,6 +974,8 @@ class Planner:
         n_tune = min(p.fine_tune, len(kept))
         bar.start("fine-tune", n_tune)
         for k, c in enumerate(kept[:n_tune]):
+            if out_of_time():
+                break
             ft = fine_tune(self.checker, c.start_pose, c.start_dofs, step=steps, facet_size=self.edge,
                            iterations=p.fine_tune_iterations, seed=p.seed + k, center=self.center,
                            radius=self.radius, mu=p.mu, edges=p.edges, contacts_per_link=p.contacts_per_link)
@@ -952,7 +983,7 @@ class Planner:
             tuned.append((c, ev, bool(ft.improved)))
             bar.advance()
         bar.finish()
-        tuned += [(c, c.evaluation, False) for c in kept[n_tune:]]
+        tuned += [(c, c.evaluation, False) for c in kept[len(tuned):]]
         tuned.sort(key=lambda t: (bool(t[1].force_closure), float(t[1].epsilon), t[0].quality, t[0].votes),
                    reverse=True)
         chosen = []

@@ -104,7 +104,7 @@ def test_settled_pose_is_the_aligned_pose_backed_off(jaw_planner, jaw_result):
 
 def test_counts_and_timings(jaw_result):
     c = jaw_result.counts
-    assert c["samples"] == c["rejected"] + c["aligned_samples"]
+    assert c["samples"] == c["rejected"] + c["aligned_samples"] + c["skipped"] and c["skipped"] == 0
     assert c["evaluated"] <= c["settled"] <= c["aligned_poses"]
     assert len(jaw_result.candidates) == c["evaluated"]
     for stage in ("index", "schedule", "align", "settle", "evaluate", "fine_tune", "total"):
@@ -117,6 +117,21 @@ def test_deterministic_for_a_seed(jaw_planner, jaw_result):
     a, b = jaw_result.to_dict(), again.to_dict()
     a.pop("timings"), b.pop("timings")
     assert a == b
+
+
+def test_time_limit_stops_the_search_between_chunks(jaw_planner):
+    """A limit already passed when the search starts leaves every kept sample unsearched, counted
+    as skipped, and returns no grasp rather than failing; a generous one changes nothing."""
+    r = jaw_planner.plan(progress=False, time_limit=1e-9)
+    c = r.counts
+    assert r.grasps == [] and c["aligned_samples"] == 0 and c["evaluated"] == 0
+    assert c["skipped"] == c["samples"] - c["rejected"] > 0
+    again = jaw_planner.plan(progress=False, time_limit=1e6).to_dict()
+    plain = jaw_planner.plan(progress=False).to_dict()
+    for d in (again, plain):
+        d.pop("timings")
+        d["parameters"].pop("time_limit")
+    assert again == plain
 
 
 def test_grid_schedule_runs_every_sample(jaw_planner):
@@ -174,6 +189,7 @@ def test_match_fraction_equals_brute_force(jaw_planner):
 @pytest.mark.parametrize("field, value", [
     ("schedule", "random"), ("step", -0.1), ("step", float("nan")), ("top", 0), ("min_match_fraction", 1.5),
     ("constellation", "hull"), ("poses_per_sample", 0), ("contacts_per_link", 0), ("edge", 0.0),
+    ("chunk", 0), ("time_limit", 0.0), ("time_limit", -1.0),
 ])
 def test_bad_parameters_name_the_field(field, value):
     p = dataclasses.replace(pg.PlanParams(), **{field: value})
