@@ -44,10 +44,11 @@ FLASK = MODELS / "targets" / "flask.stl"
 
 @dataclass
 class Cli:
-    """A `pairgrasp` command run in the scratch folder."""
+    """A `pairgrasp` command run in the scratch folder; `shown` is how the table writes it."""
     argv: List[str]
     status: int = 1
     warning: bool = False  # the input is used: exit 0 with one warning line
+    shown: str = ""
 
 
 @dataclass
@@ -85,10 +86,12 @@ def case(input: str, expect: str):
 
 
 def plan(*, hand=JAW, target=BOX, extra=()):
-    """A plan command line; the table shows only what differs from the defaults."""
+    """A plan command line (parallel jaw, box, --edge 0.008, no pictures, quiet, -o out); the table
+    shows only what differs from those defaults."""
     argv = ["plan", "--hand", str(hand), "--target", str(target), "--edge", "0.008", "--pictures", "0", "--quiet",
             *extra, "-o", "out"]
-    return Cli(argv)
+    given = ([] if hand == JAW else ["--hand", str(hand)]) + ([] if target == BOX else ["--target", str(target)])
+    return Cli(argv, shown=" ".join(["pairgrasp plan", *given, *extra]))
 
 
 # ---- files
@@ -109,13 +112,13 @@ def write_stl(path, V, F):
 def ascii_stl(V, F):
     s = "solid box\n"
     for t in F:
-        s += " facet normal 0 0 0\n  outer loop\n" + "".join("   vertex %r %r %r\n" % tuple(V[i]) for i in t)
+        s += " facet normal 0 0 0\n  outer loop\n" + "".join("   vertex %r %r %r\n" % tuple(map(float, V[i])) for i in t)
         s += "  endloop\n endfacet\n"
     return s + "endsolid box\n"
 
 
 def obj(V, F):
-    return "".join("v %r %r %r\n" % tuple(v) for v in V) + "".join("f %d %d %d\n" % tuple(t + 1) for t in F)
+    return "".join("v %r %r %r\n" % tuple(map(float, v)) for v in V) + "".join("f %d %d %d\n" % tuple(t + 1) for t in F)
 
 
 def ply_binary(V, F):
@@ -229,7 +232,7 @@ def _(d):
 @case("OBJ with vertices but no faces", "no_faces.obj")
 def _(d):
     V, _ = box_arrays()
-    (d / "no_faces.obj").write_text("".join("v %r %r %r\n" % tuple(v) for v in V))
+    (d / "no_faces.obj").write_text("".join("v %r %r %r\n" % tuple(map(float, v)) for v in V))
     return plan(target="no_faces.obj")
 
 
@@ -499,7 +502,7 @@ def _(d):
 
 @case("--hand not given", "the following arguments are required: --hand")
 def _(d):
-    return Cli(["plan", "--target", str(BOX), "-o", "out"], status=2)
+    return Cli(["plan", "--target", str(BOX), "-o", "out"], status=2, shown="pairgrasp plan --target models/targets/box.stl")
 
 
 @case("-o names an existing file", "-o: out exists and is not a directory")
@@ -510,7 +513,8 @@ def _(d):
 
 @case("--edge so fine the pairs exceed the budget", "max_pairs: at a facet edge of 0.0002 m")
 def _(d):
-    return Cli(["plan", "--hand", str(BARRETT), "--target", str(FLASK), "--edge", "0.0002", "--quiet", "-o", "out"])
+    return Cli(["plan", "--hand", str(BARRETT), "--target", str(FLASK), "--edge", "0.0002", "--quiet", "-o", "out"],
+               shown="pairgrasp plan --hand models/barrett/barrett.json --target models/targets/flask.stl --edge 0.0002")
 
 
 # ---- API calls
@@ -721,7 +725,7 @@ def run_case(c: Case, folder: pathlib.Path) -> Outcome:
         r = subprocess.run([sys.executable, "-m", "pairgrasp.cli", *what.argv], cwd=folder, capture_output=True,
                            text=True, timeout=900, stdin=subprocess.DEVNULL)
         lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
-        shown = "pairgrasp " + " ".join(a if " " not in a else repr(a) for a in what.argv)
+        shown = what.shown or "pairgrasp " + " ".join(a if " " not in a else repr(a) for a in what.argv)
         out = Outcome(c, _display(shown, folder), _display(lines[0] if lines else "", folder), f"exit {r.returncode}")
         prefix = "pairgrasp: warning: " if what.warning else "pairgrasp: error: "
         if r.returncode != what.status:
@@ -768,10 +772,7 @@ def markdown(outcomes: List[Outcome]) -> str:
 
     rows = ["| bad input | given as | what the user sees | result |", "| --- | --- | --- | --- |"]
     for o in outcomes:
-        given = o.shown.replace(" --edge 0.008 --pictures 0 --quiet", "").replace(" -o out", "")
-        given = given.replace("--hand models/parallel_jaw/parallel_jaw.json ", "").replace(
-            "--target models/targets/box.stl ", "")
-        rows.append(f"| {o.case.input} | {cell(given)} | {cell(o.message)} | {o.status}"
+        rows.append(f"| {o.case.input} | {cell(o.shown)} | {cell(o.message)} | {o.status}"
                     f"{' **NOT CLEAN: ' + '; '.join(o.problems) + '**' if o.problems else ''} |")
     return "\n".join(rows)
 

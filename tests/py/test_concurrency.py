@@ -77,8 +77,10 @@ def test_check_many_check_and_close_from_threads_equal_serial(scene):
         for p in aligner.align(c.points, c.normals):
             T = np.eye(4)
             T[:3, :3], T[:3, 3] = p.rotation, p.translation
-            poses.append(T)
-            dofs.append(q)
+            away = T.copy()  # backed off along the approach: clear of the mug
+            away[:3, 3] -= 0.15 * (np.asarray(p.rotation) @ np.asarray(hand.approach, float).ravel())
+            poses += [T, away]
+            dofs += [q, q]
     poses, dofs = np.array(poses), np.array(dofs)
     assert len(poses) >= 6
     checker = pg.GraspChecker(hand, mesh, depth_tolerance=0.002, threads=2)

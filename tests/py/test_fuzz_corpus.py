@@ -3,12 +3,14 @@ they must load and bad_* when they must be refused, and tests/fuzz/regressions/g
 harness's own target, so that every input that ever broke the reader stays a test."""
 import importlib.util
 import pathlib
+import sys
 
 import pytest
 
 FUZZ = pathlib.Path(__file__).resolve().parents[2] / "tests" / "fuzz"
 _spec = importlib.util.spec_from_file_location("fuzz_grasps", FUZZ / "fuzz_grasps.py")
 fuzz_grasps = importlib.util.module_from_spec(_spec)
+sys.modules[_spec.name] = fuzz_grasps  # before it runs: its dataclasses look their module up
 _spec.loader.exec_module(fuzz_grasps)
 
 SEEDS = sorted((FUZZ / "corpus" / "grasps").iterdir())

@@ -118,9 +118,9 @@ def test_rotation_capacity_is_never_exceeded_and_saturation_is_reported(aligned)
 
 def test_position_capacity_is_never_exceeded_and_saturation_is_reported(aligned):
     index, c = aligned
-    _, free = pg.Aligner(index).align(c.points, c.normals, return_stats=True)
+    _, free = pg.Aligner(index, min_agreement=1).align(c.points, c.normals, return_stats=True)
     assert not free.saturated and free.position_bins > 4
-    _, st = pg.Aligner(index, position_capacity=4).align(c.points, c.normals, return_stats=True)
+    _, st = pg.Aligner(index, min_agreement=1, position_capacity=4).align(c.points, c.normals, return_stats=True)
     assert st.position_bins == 4 and st.saturated and st.dropped_position_votes > 0
     assert st.position_votes == free.position_votes
     assert st.dropped_rotation_votes == 0  # only the position accumulators were full
