@@ -603,6 +603,13 @@ def _(d):
     return api("pg.make_mesh(V_nan, F)", lambda: o["pg"].make_mesh(V, np.array([[0, 1, 2]])))
 
 
+@case("mesh arrays with coordinates of 1e200 m (found by fuzzing: areas overflowed)", "vertices: vertex 1")
+def _(d):
+    o = objects()
+    V = np.array([[0, 0, 0], [1e200, 0, 0], [0, 1, 0]])
+    return api("pg.make_mesh(V_huge, F)", lambda: o["pg"].make_mesh(V, np.array([[0, 1, 2]])))
+
+
 @case("mesh arrays with a face index out of range", "faces: face 0 has index 7 out of range [0, 3)")
 def _(d):
     o = objects()
