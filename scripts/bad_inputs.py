@@ -85,13 +85,13 @@ def case(input: str, expect: str):
     return register
 
 
-def plan(*, hand=JAW, target=BOX, extra=()):
+def plan(*, hand=JAW, target=BOX, extra=(), status=1):
     """A plan command line (parallel jaw, box, --edge 0.008, no pictures, quiet, -o out); the table
     shows only what differs from those defaults."""
     argv = ["plan", "--hand", str(hand), "--target", str(target), "--edge", "0.008", "--pictures", "0", "--quiet",
             *extra, "-o", "out"]
     given = ([] if hand == JAW else ["--hand", str(hand)]) + ([] if target == BOX else ["--target", str(target)])
-    return Cli(argv, shown=" ".join(["pairgrasp plan", *given, *extra]))
+    return Cli(argv, status=status, shown=" ".join(["pairgrasp plan", *given, *extra]))
 
 
 # ---- files
@@ -439,65 +439,47 @@ def _(d):
 
 @case("--edge negative", "--edge: expected a finite number > 0, got '-1'")
 def _(d):
-    c = plan(extra=["--edge", "-1"])
-    c.status = 2
-    return c
+    return plan(extra=["--edge", "-1"], status=2)
 
 
 @case("--edge not a number", "--edge: expected a number, got 'fine'")
 def _(d):
-    c = plan(extra=["--edge", "fine"])
-    c.status = 2
-    return c
+    return plan(extra=["--edge", "fine"], status=2)
 
 
 @case("--edge nan", "--edge: expected a finite number > 0, got 'nan'")
 def _(d):
-    c = plan(extra=["--edge", "nan"])
-    c.status = 2
-    return c
+    return plan(extra=["--edge", "nan"], status=2)
 
 
 @case("--top 0", "--top: expected an integer >= 1, got '0'")
 def _(d):
-    c = plan(extra=["--top", "0"])
-    c.status = 2
-    return c
+    return plan(extra=["--top", "0"], status=2)
 
 
 @case("--threads -1", "--threads: expected an integer >= 0, got '-1'")
 def _(d):
-    c = plan(extra=["--threads", "-1"])
-    c.status = 2
-    return c
+    return plan(extra=["--threads", "-1"], status=2)
 
 
 @case("--scale 0", "--scale: expected a finite number > 0, got '0'")
 def _(d):
-    c = plan(extra=["--scale", "0"])
-    c.status = 2
-    return c
+    return plan(extra=["--scale", "0"], status=2)
 
 
 @case("--viewpoint with two numbers", "--viewpoint")
 def _(d):
-    c = plan(extra=["--viewpoint", "0", "1"])
-    c.status = 2
-    return c
+    return plan(extra=["--viewpoint", "0", "1"], status=2)
 
 
 @case("--schedule unknown", "--schedule: invalid choice: 'slow'")
 def _(d):
-    c = plan(extra=["--schedule", "slow"])
-    c.status = 2
-    return c
+    return plan(extra=["--schedule", "slow"], status=2)
 
 
 @case("unknown option", "unrecognized arguments: --fast")
 def _(d):
-    c = plan(extra=["--fast"])
-    c.status = 2
-    return c
+    return plan(extra=["--fast"], status=2)
 
 
 @case("--hand not given", "the following arguments are required: --hand")
