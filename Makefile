@@ -5,8 +5,22 @@ JOBS      ?= $(shell nproc 2>/dev/null || echo 2)
 GENERATOR := $(shell command -v ninja >/dev/null 2>&1 && echo Ninja || echo "Unix Makefiles")
 PYBIND11_DIR = $(shell $(PYTHON) -c "import pybind11; print(pybind11.get_cmake_dir())" 2>/dev/null)
 OUT       ?= out/demo
+# Sanitizer and fuzzing builds, each in its own folder (see the README's "Reliability").
+ASAN_BUILD ?= build/asan
+FUZZ_BUILD ?= build/fuzz
+TSAN_BUILD ?= build/tsan
+FUZZ_TIME  ?= 30
+ASAN_CXX   ?= g++
+SAN_CONFIG = -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1"
+ASAN_ENV   = ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:detect_stack_use_after_return=0 \
+             UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+# The Python tests against the sanitized extension: the interpreter is not instrumented, so the
+# ASan runtime is preloaded, and Python's own allocations are not reported as leaks.
+ASAN_PY_ENV = LD_PRELOAD=$$($(ASAN_CXX) -print-file-name=libasan.so) PYTHONPATH=$(ASAN_BUILD)/python \
+             ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+             PAIRGRASP_SANITIZED=1
 
-.PHONY: deps build ctest install pytest test demo bench clean
+.PHONY: deps build ctest install pytest test demo bench clean asan asan-build asan-ctest asan-pytest fuzz tsan
 
 deps:
 	bash scripts/install_deps.sh
@@ -27,8 +41,44 @@ install: deps
 pytest: install
 	$(PYTHON) -m pytest tests/py -q
 
-# Every test: C++ (ctest, including the find_package consumer) and Python (pytest).
-test: ctest pytest
+# Every test: C++ (ctest, including the find_package consumer) and Python (pytest), then the
+# same C++ tests and the Python tests against an ASan + UBSan build, then bounded fuzzing.
+test: ctest pytest asan fuzz
+
+# ASan + UBSan: the library, its C++ tests and the Python extension in $(ASAN_BUILD).
+$(ASAN_BUILD)/CMakeCache.txt:
+	cmake -S . -B $(ASAN_BUILD) -G "$(GENERATOR)" $(SAN_CONFIG) -DCMAKE_CXX_COMPILER=$(ASAN_CXX) -DPAIRGRASP_SANITIZE=ON \
+	  -DPAIRGRASP_BUILD_TESTS=ON -DPAIRGRASP_BUILD_PYTHON=ON -DPython_EXECUTABLE=$$(command -v $(PYTHON)) \
+	  -Dpybind11_DIR=$(PYBIND11_DIR)
+
+asan-build: deps $(ASAN_BUILD)/CMakeCache.txt
+	cmake --build $(ASAN_BUILD) -j $(JOBS)
+
+# The consumer test is left to the plain ctest: it builds an uninstrumented program.
+asan-ctest: asan-build
+	$(ASAN_ENV) ctest --test-dir $(ASAN_BUILD) --output-on-failure -j $(JOBS) -E find_package_consumer
+
+asan-pytest: asan-build install
+	$(ASAN_PY_ENV) $(PYTHON) -m pytest tests/py -q -p no:cacheprovider
+
+asan: asan-ctest asan-pytest
+
+# libFuzzer harnesses (clang, ASan + UBSan) and the atheris one, FUZZ_TIME seconds each.
+$(FUZZ_BUILD)/CMakeCache.txt:
+	cmake -S . -B $(FUZZ_BUILD) -G "$(GENERATOR)" $(SAN_CONFIG) -DCMAKE_CXX_COMPILER=clang++ \
+	  -DPAIRGRASP_BUILD_FUZZ=ON -DPAIRGRASP_BUILD_TESTS=OFF
+
+fuzz: deps install $(FUZZ_BUILD)/CMakeCache.txt
+	cmake --build $(FUZZ_BUILD) -j $(JOBS)
+	bash scripts/run_fuzz.sh $(FUZZ_BUILD) $(FUZZ_TIME) $(PYTHON)
+
+# ThreadSanitizer, run by hand (not part of `test`): the threaded C++ paths.
+$(TSAN_BUILD)/CMakeCache.txt:
+	cmake -S . -B $(TSAN_BUILD) -G "$(GENERATOR)" $(SAN_CONFIG) -DPAIRGRASP_TSAN=ON -DPAIRGRASP_BUILD_TESTS=ON
+
+tsan: deps $(TSAN_BUILD)/CMakeCache.txt
+	cmake --build $(TSAN_BUILD) -j $(JOBS) --target test_concurrency
+	TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1 $(TSAN_BUILD)/tests/cpp/test_concurrency
 
 # The main job on the bundled models: grasps.json and pictures in $(OUT).
 demo: install

@@ -91,7 +91,7 @@ std::string stats_repr(const AlignStats& s) {
     << ", candidates=" << s.candidates << ", rotation_votes=" << s.rotation_votes
     << ", dropped_rotation_votes=" << s.dropped_rotation_votes << ", rotation_bins=" << s.rotation_bins
     << ", position_votes=" << s.position_votes << ", dropped_position_votes=" << s.dropped_position_votes
-    << ", saturated=" << (s.saturated ? "True" : "False") << ")";
+    << ", position_bins=" << s.position_bins << ", saturated=" << (s.saturated ? "True" : "False") << ")";
   return o.str();
 }
 
@@ -219,6 +219,8 @@ non-rigid one returns an empty list; solve_pair_pose_status() says which.
       .def_readonly("rotation_clusters", &AlignStats::rotation_clusters)
       .def_readonly("position_votes", &AlignStats::position_votes)
       .def_readonly("dropped_position_votes", &AlignStats::dropped_position_votes)
+      .def_readonly("position_bins", &AlignStats::position_bins,
+                    "most bins held by one rotation cluster's position accumulator (<= position_capacity)")
       .def_readonly("saturated", &AlignStats::saturated, "some votes or correspondences were dropped")
       .def("__repr__", &stats_repr);
 

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs what pairgrasp needs to build and test: C++ libraries from Debian, Python packages from PyPI.
+# Installs what pairgrasp needs to build and test: C++ libraries from Debian (clang and its fuzzer
+# runtime for the libFuzzer harnesses), Python packages from PyPI (atheris for the Python harness).
 # Safe to run again; uses sudo only when not root.
 set -euo pipefail
 
@@ -10,6 +11,7 @@ DEBIAN_PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libeigen3-dev libfcl-dev libccd-dev libassimp-dev liburdfdom-dev
   libgtest-dev libbenchmark-dev nlohmann-json3-dev
+  clang libclang-rt-14-dev
 )
 
 missing=()
@@ -30,5 +32,6 @@ fi
 PYTHON="${PYTHON:-python3}"
 "$PYTHON" -m pip install -q --disable-pip-version-check \
   "scikit-build-core>=0.10" "pybind11>=2.12" "numpy>=1.24" "scipy>=1.10" "matplotlib>=3.6" "pytest>=7" "trimesh>=4" \
-  "mujoco>=4.0" "coacd>=1.0.14"   # the [sim] extra, so the physics-check tests run
+  "mujoco>=4.0" "coacd>=1.0.14" \
+  "atheris>=2.3"
 echo "install_deps: done"

@@ -352,6 +352,7 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
       pslot[m] = pbins.add(detail::position_cell(ct, pcell), ct, v.agreement);
     }
     st.dropped_position_votes += static_cast<std::size_t>(std::lround(pbins.dropped_weight()));
+    st.position_bins = std::max(st.position_bins, pbins.bins().size());
     if (pbins.saturated()) st.saturated = true;
     const auto pclusters = detail::position_clusters(pbins, pcell, opt.position_tolerance, opt.positions_per_rotation);
     std::vector<std::int32_t> pcluster_of(pbins.bins().size(), -1);

@@ -24,6 +24,7 @@ namespace pairgrasp {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+constexpr double kMaxCoordinate = 1e100;  // metres; see build_mesh()
 
 std::string format_number(double x) {
   std::ostringstream s;
@@ -86,7 +87,7 @@ void weld(const Points& v, const std::vector<char>& referenced, double tol, std:
   double max_abs = 0.0;
   for (int i : distinct) max_abs = std::max(max_abs, v.row(i).cwiseAbs().maxCoeff());
   const double cell = 2.0 * tol;
-  if (!(tol > 0.0) || !(max_abs / cell < 1e15)) return;  // exact only (cell indices must fit in int64)
+  if (!(tol > 0.0) || !std::isfinite(cell) || !(max_abs / cell < 1e15)) return;  // exact only (cell indices must fit in int64)
 
   // Grid of the representatives: cell -> first one, next[] chains the rest of the cell.
   std::unordered_map<CellKey, int, CellHash> head;
@@ -333,6 +334,11 @@ Mesh build_mesh(Points vertices, Triangles faces, std::string source, const Mesh
       if (!vertices.row(i).allFinite())
         fail("vertices", "vertex " + std::to_string(i) + " is not finite after scaling by " + format_number(factor));
   }
+  // Areas, volumes and the weld grid square and cube coordinates: beyond this they overflow.
+  for (Eigen::Index i = 0; i < nv; ++i)
+    if (vertices.row(i).cwiseAbs().maxCoeff() > kMaxCoordinate)
+      fail("vertices", "vertex " + std::to_string(i) + " " + format_row(vertices, i) + " lies beyond " +
+                           format_number(kMaxCoordinate) + " m of the origin");
 
   // ---- weld the referenced vertices
   std::vector<char> referenced(static_cast<std::size_t>(nv), 0);

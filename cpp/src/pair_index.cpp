@@ -155,6 +155,75 @@ struct Record {
   std::int32_t i, j;
 };
 
+/// The pair budget in force: max_pairs, at most what 32-bit pair indices can address.
+std::size_t pair_limit(std::size_t max_pairs) {
+  return std::min<std::size_t>(max_pairs, std::numeric_limits<std::uint32_t>::max());
+}
+
+/// PairIndex's refusal, with the counts build_target_index() needs to name an edge that fits.
+class PairBudgetExceeded : public BudgetError {
+ public:
+  PairBudgetExceeded(const std::string& message, std::size_t facets, std::size_t pairs)
+      : BudgetError(message), facets(facets), pairs(pairs) {}
+  std::size_t facets, pairs;
+};
+
+constexpr double kFacetAreaPerEdge2 = 0.86602540378443865;  // unit facet area / edge^2 (tessellate)
+
+/// What suggest_edge() and build_target_index() estimate from: the surface area taking part and
+/// the fraction of facet pairs within d_max, measured on a coarse tessellation (about 1500 facets).
+struct PairEstimate {
+  double area = 0.0;
+  double fraction = 1.0;
+  /// Estimated stored pairs at facet edge `edge` (metres).
+  double pairs(double edge) const {
+    const double n = area / (kFacetAreaPerEdge2 * edge * edge);
+    return fraction * 0.5 * n * n;
+  }
+};
+
+PairEstimate estimate_pairs(const Mesh& mesh, double d_max, const Mask& free_faces) {
+  PairEstimate e;
+  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) {
+    if (mesh.faces.row(f).minCoeff() < 0 || mesh.faces.row(f).maxCoeff() >= mesh.vertices.rows()) continue;
+    const Eigen::Vector3d a = mesh.vertices.row(mesh.faces(f, 0)).transpose();
+    const Eigen::Vector3d b = mesh.vertices.row(mesh.faces(f, 1)).transpose();
+    const Eigen::Vector3d c = mesh.vertices.row(mesh.faces(f, 2)).transpose();
+    e.area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  if (!(e.area > 0.0) || !std::isfinite(e.area)) throw std::invalid_argument("mesh: has no surface area");
+  const double coarse_edge = std::sqrt(e.area / (kFacetAreaPerEdge2 * 1500.0));
+  const UnitFacets coarse = tessellate(mesh, coarse_edge, free_faces);
+  const double n = double(coarse.points.rows());
+  // At least one pair, so that a d_max below the coarse spacing still gives a finite estimate.
+  const double coarse_pairs = std::max(1.0, double(count_pairs(coarse.points, d_max, coarse.free)));
+  e.fraction = coarse_pairs / (0.5 * n * n);
+  return e;
+}
+
+double suggest_edge_from(const Mesh& mesh, double d_max, std::size_t max_pairs, const Mask& free_faces,
+                         const PairEstimate& est) {
+  const double n_fit = std::max(1.0, std::sqrt(2.0 * double(max_pairs) / est.fraction));
+  double edge = std::sqrt(est.area / (kFacetAreaPerEdge2 * n_fit));
+  // Check and refine: the pair count scales about as edge^-4. Keep the finest edge that fits.
+  double best = std::numeric_limits<double>::infinity();
+  for (int iter = 0; iter < 12; ++iter) {
+    const UnitFacets f = tessellate(mesh, edge, free_faces);
+    const double pairs = double(count_pairs(f.points, d_max, f.free));
+    if (pairs <= double(max_pairs)) {
+      best = std::min(best, edge);
+      if (pairs >= 0.95 * double(max_pairs)) break;
+    }
+    const double next = pairs > 0.0 ? edge * std::pow(pairs / (0.975 * double(max_pairs)), 0.25) : 0.5 * edge;
+    if (next >= best) break;  // would only coarsen past an edge that already fits
+    edge = next;
+  }
+  if (!std::isfinite(best))
+    throw std::invalid_argument("max_pairs: found no facet edge whose pairs fit a budget of " +
+                                std::to_string(max_pairs) + " pairs");
+  return best;
+}
+
 }  // namespace
 
 // ====================================================================== PairIndex::Impl
@@ -261,7 +330,7 @@ PairIndex::PairIndex(const Points& points, const Points& normals, const Mask& fr
   std::vector<std::size_t> offset(counts.size() + 1, 0);
   for (std::size_t k = 0; k < counts.size(); ++k) offset[k + 1] = offset[k] + counts[k];
   const std::size_t m = offset.back();
-  const std::size_t limit = std::min<std::size_t>(options.max_pairs, std::numeric_limits<std::uint32_t>::max());
+  const std::size_t limit = pair_limit(options.max_pairs);
   if (m > limit) {
     const double n = double(g.active.size());
     const double ratio = double(m) / double(std::max<std::size_t>(limit, 1));
@@ -271,7 +340,7 @@ PairIndex::PairIndex(const Points& points, const Points& normals, const Mask& fr
         << " pairs with d <= d_max = " << fmt(options.d_max) << " m, more than the budget of " << limit
         << " pairs; about " << fit << " facets would fit (pairs grow as facets^2: coarsen the facet edge by x"
         << fmt(std::pow(ratio, 0.25), 3) << " = (pairs/budget)^(1/4), or raise max_pairs)";
-    throw BudgetError(msg.str());
+    throw PairBudgetExceeded(msg.str(), g.active.size(), m);
   }
 
   std::vector<Record> rec(m);
@@ -431,58 +500,41 @@ std::size_t count_pairs(const Points& points, double d_max, const Mask& free, in
 double suggest_edge(const Mesh& mesh, double d_max, std::size_t max_pairs, const Mask& free_faces) {
   check_d_max(d_max);
   if (max_pairs == 0) throw std::invalid_argument("max_pairs: expected at least 1, got 0");
-  // Coarse tessellation (about 1500 facets) to measure the fraction of facet pairs within d_max.
-  double area = 0.0;
-  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) {
-    if (mesh.faces.row(f).minCoeff() < 0 || mesh.faces.row(f).maxCoeff() >= mesh.vertices.rows()) continue;
-    const Eigen::Vector3d a = mesh.vertices.row(mesh.faces(f, 0)).transpose();
-    const Eigen::Vector3d b = mesh.vertices.row(mesh.faces(f, 1)).transpose();
-    const Eigen::Vector3d c = mesh.vertices.row(mesh.faces(f, 2)).transpose();
-    area += 0.5 * (b - a).cross(c - a).norm();
-  }
-  if (!(area > 0.0) || !std::isfinite(area)) throw std::invalid_argument("mesh: has no surface area");
-  const double facet_area_per_edge2 = 0.86602540378443865;
-  const double coarse_edge = std::sqrt(area / (facet_area_per_edge2 * 1500.0));
-  const UnitFacets coarse = tessellate(mesh, coarse_edge, free_faces);
-  const double n = double(coarse.points.rows());
-  // At least one pair, so that a d_max below the coarse spacing still gives a finite estimate.
-  const double coarse_pairs = std::max(1.0, double(count_pairs(coarse.points, d_max, coarse.free)));
-  const double fraction = coarse_pairs / (0.5 * n * n);
-  const double n_fit = std::max(1.0, std::sqrt(2.0 * double(max_pairs) / fraction));
-  double edge = std::sqrt(area / (facet_area_per_edge2 * n_fit));
-  // Check and refine: the pair count scales about as edge^-4. Keep the finest edge that fits.
-  double best = std::numeric_limits<double>::infinity();
-  for (int iter = 0; iter < 12; ++iter) {
-    const UnitFacets f = tessellate(mesh, edge, free_faces);
-    const double pairs = double(count_pairs(f.points, d_max, f.free));
-    if (pairs <= double(max_pairs)) {
-      best = std::min(best, edge);
-      if (pairs >= 0.95 * double(max_pairs)) break;
-    }
-    const double next = pairs > 0.0 ? edge * std::pow(pairs / (0.975 * double(max_pairs)), 0.25) : 0.5 * edge;
-    if (next >= best) break;  // would only coarsen past an edge that already fits
-    edge = next;
-  }
-  if (!std::isfinite(best))
-    throw std::invalid_argument("max_pairs: found no facet edge whose pairs fit a budget of " +
-                                std::to_string(max_pairs) + " pairs");
-  return best;
+  return suggest_edge_from(mesh, d_max, max_pairs, free_faces, estimate_pairs(mesh, d_max, free_faces));
 }
 
 TargetIndex build_target_index(const Mesh& mesh, double edge, const Mask& free_faces,
                                const PairIndexOptions& options) {
-  if (edge == 0.0) edge = suggest_edge(mesh, options.d_max, options.max_pairs, free_faces);
+  check_d_max(options.d_max);
+  if (options.max_pairs == 0) throw std::invalid_argument("max_pairs: expected at least 1, got 0");
+  if (!std::isfinite(edge) || edge < 0.0)
+    throw std::invalid_argument("edge: expected a positive facet edge in metres (0: suggested), got " + fmt(edge));
+  const std::size_t limit = pair_limit(options.max_pairs);
+  const PairEstimate est = estimate_pairs(mesh, options.d_max, free_faces);
+  if (edge == 0.0) edge = suggest_edge_from(mesh, options.d_max, limit, free_faces, est);
+  // The refusal names an edge that fits with a little room (the count at an edge varies by a
+  // fraction of a per cent with the tessellation), rounded up.
+  auto refusal = [&](const std::string& how_many) {
+    const double fit = suggest_edge_from(mesh, options.d_max, std::max<std::size_t>(1, limit / 50 * 49), free_faces, est);
+    const double unit = std::pow(10.0, std::floor(std::log10(fit)) - 3);  // 4 significant digits
+    std::ostringstream msg;
+    msg << "max_pairs: at a facet edge of " << fmt(edge) << " m the target gives " << how_many
+        << " pairs with d <= d_max = " << fmt(options.d_max) << " m, more than the budget of " << limit
+        << " pairs; a facet edge of " << fmt(std::ceil(fit / unit) * unit, 4)
+        << " m fits (pairs grow as edge^-4), or raise max_pairs";
+    return BudgetError(msg.str());
+  };
+  // Far over the budget (the estimate is good to some per cent): refuse before tessellating, whose
+  // facets alone could exhaust memory at a tiny edge.
+  const double estimated = est.pairs(edge);
+  if (estimated > 1.5 * double(limit)) throw refusal("about " + fmt(estimated, 3));
   UnitFacets facets = tessellate(mesh, edge, free_faces);
   try {
     PairIndex index(facets.points, facets.normals, facets.free, options);
     return TargetIndex{std::move(facets), std::move(index)};
-  } catch (const BudgetError& e) {
-    // Refused before any pair was stored; name the edge that fits (tessellated and counted).
-    facets = UnitFacets();
-    // Rounded up to 0.1 micrometre: a coarser edge, so the edge printed fits too.
-    const double fit = std::ceil(suggest_edge(mesh, options.d_max, options.max_pairs, free_faces) * 1e7) / 1e7;
-    throw BudgetError("edge: " + fmt(edge) + " m: " + e.what() + "; suggest_edge gives " + fmt(fit, 7) +
-                      " m for this mesh");
+  } catch (const PairBudgetExceeded& e) {
+    throw refusal(std::to_string(e.facets) + (free_faces.size() ? " free" : "") + " unit facets and " +
+                  std::to_string(e.pairs));
   }
 }
 

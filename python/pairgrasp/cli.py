@@ -1,6 +1,7 @@
 """The `pairgrasp` command line.
 
-Every failure prints one line `pairgrasp: error: ...` on stderr and exits with a non-zero status.
+Every failure prints one line `pairgrasp: error: ...` on stderr and exits with a non-zero status; a
+warning (e.g. a target that is not watertight) prints one line `pairgrasp: warning: ...`.
 """
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import shutil
 import sys
 import tempfile
 import time
+import warnings
 
 import numpy as np
 
@@ -64,7 +66,7 @@ def _planner_from_args(args, **extra):
     for name, path in [("--hand", args.hand), ("--target", args.target), ("--paint", args.paint)] + \
             [("--occluder", o) for o in (args.occluder or [])] + [("--obstacle", o) for o in (args.obstacle or [])]:
         if path is not None and not os.path.isfile(path):
-            raise ValueError(f"{name}: no such file: {path}")
+            raise ValueError(f"{name}: {'not a file' if os.path.exists(path) else 'no such file'}: {path}")
     target = pg.load_mesh(args.target, scale=args.scale)
     params = dict(schedule=args.schedule, step=args.step, top=args.top, seed=args.seed, threads=args.threads,
                   time_limit=args.time_limit)
@@ -275,13 +277,19 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    print(f"pairgrasp: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command == "info" and not (args.hand or args.target):
         parser.error("info needs --hand and/or --target")
     try:
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            return args.func(args)
     except KeyboardInterrupt:
         print("pairgrasp: error: interrupted", file=sys.stderr)
         return 130

@@ -64,6 +64,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from . import _core
+from .checks import check_target_scale, warn_if_open
 from .grasp import evaluate_grasp, fine_tune, torque_reference
 from .quality import grasp_quality
 
@@ -295,7 +296,9 @@ class PlanResult:
         return {
             "format": "pairgrasp.grasps/1",
             "inputs": self.inputs,
-            "parameters": {**asdict(self.params), "edge": _round(self.edge), "d_max": _round(self.d_max),
+            # Every parameter but threads, which changes how the plan runs, not what it finds.
+            "parameters": {**{k: v for k, v in asdict(self.params).items() if k != "threads"},
+                           "edge": _round(self.edge), "d_max": _round(self.d_max),
                            "constellation": self.constellation,
                            "spacing": None if self.spacing is None else _round(self.spacing)},
             "counts": dict(self.counts),
@@ -452,6 +455,9 @@ class Planner:
             edge = min(0.005, float(extent.min()) / 15.0) if extent.min() > 0 else 0.005
         if d_max is None:
             d_max = self._hand_span(lo, hi, edge) + edge
+        target_name = self.target.source or self.inputs["target"]
+        check_target_scale(self.target, d_max, target_name)
+        warn_if_open(self.target, target_name)
         if p.edge is None:
             budget_edge = _core.suggest_edge(self.target, d_max, int(p.max_pairs), free)
             edge = max(edge, budget_edge)

@@ -111,6 +111,7 @@ struct AlignStats {
   std::size_t rotation_clusters = 0;    ///< rotation clusters that received position votes
   std::size_t position_votes = 0;       ///< votes cast in pass 3
   std::size_t dropped_position_votes = 0;  ///< votes lost because a position accumulator was full
+  std::size_t position_bins = 0;        ///< most bins held by one rotation cluster's position accumulator
   bool saturated = false;  ///< some votes or correspondences were dropped (capacity reached)
 };
 

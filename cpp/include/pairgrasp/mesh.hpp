@@ -83,13 +83,15 @@ struct MeshLoadOptions {
 /// they stay outward). COLLADA files keep their authored axes (no Z-up to Y-up rotation, as
 /// RViz does) and their top-level `<asset><unit meter="...">` is applied exactly once, then
 /// `options.scale`. Throws FileError naming the file (missing, unreadable, unsupported or
-/// malformed, no triangles, NaN/inf vertices, out-of-range indices, bad `<unit>`);
+/// malformed, no triangles, NaN/inf vertices or coordinates beyond 1e100 m (whose areas would
+/// overflow), out-of-range indices, bad `<unit>`);
 /// std::invalid_argument for a non-positive or non-finite scale or a negative weld tolerance.
 Mesh load_mesh(const std::string& path, const MeshLoadOptions& options = {});
 
 /// Builds a mesh from arrays with the same validation and clean-up as load_mesh().
 /// `name` becomes Mesh::source and is used in error messages. Throws std::invalid_argument
-/// naming the argument ("vertices", "faces") for non-finite vertices, out-of-range indices or
+/// naming the argument ("vertices", "faces") for non-finite vertices or coordinates beyond
+/// 1e100 m, out-of-range indices or
 /// no triangles, and for bad options.
 Mesh make_mesh(const Points& vertices, const Triangles& faces, const std::string& name = "mesh",
                const MeshLoadOptions& options = {});

@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Runs every fuzz harness for a bounded time: the libFuzzer ones built in BUILD (make fuzz) and the
+# atheris one of the grasps.json reader (Python). Each starts from its committed seed corpus
+# (tests/fuzz/corpus/<target>) and regression inputs (tests/fuzz/regressions/<target>); new inputs
+# go to BUILD/fuzz-corpus/<target>, never into the source tree. Exits non-zero on the first crash,
+# leak, timeout or out-of-memory, printing the reproducer's path (BUILD/fuzz-artifacts/).
+#
+#   scripts/run_fuzz.sh BUILD SECONDS PYTHON [TARGET...]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD=${1:?usage: run_fuzz.sh BUILD SECONDS PYTHON [TARGET...]}
+SECONDS_EACH=${2:?seconds per target}
+PYTHON=${3:?python}
+shift 3
+TARGETS=("$@")
+if [ "${#TARGETS[@]}" -eq 0 ]; then
+  TARGETS=(mesh_stl mesh_obj mesh_ply mesh_dae hand paint grasps)
+fi
+
+mkdir -p "$BUILD/fuzz-artifacts" "$BUILD/fuzz-logs"
+# Per input: 10 s at most (a hang), 2 GiB at most; the whole run SECONDS_EACH.
+FLAGS=(-max_total_time="$SECONDS_EACH" -timeout=10 -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1)
+export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:symbolize=1}"
+export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
+
+status=0
+for t in "${TARGETS[@]}"; do
+  work="$BUILD/fuzz-corpus/$t"
+  mkdir -p "$work"
+  log="$BUILD/fuzz-logs/$t.log"
+  if [ "$t" = grasps ]; then
+    cmd=("$PYTHON" tests/fuzz/fuzz_grasps.py)
+  else
+    cmd=("$BUILD/tests/fuzz/fuzz_$t")
+  fi
+  dirs=("$work" "tests/fuzz/corpus/$t")
+  if [ -d "tests/fuzz/regressions/$t" ]; then dirs+=("tests/fuzz/regressions/$t"); fi
+  start=$(date +%s)
+  if "${cmd[@]}" "${FLAGS[@]}" -artifact_prefix="$BUILD/fuzz-artifacts/$t-" "${dirs[@]}" >"$log" 2>&1; then
+    runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
+    cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | grep -o '[0-9]*' || echo "?")
+    echo "fuzz $t: ok, $runs inputs in $(( $(date +%s) - start )) s, coverage $cov"
+  else
+    status=1
+    echo "fuzz $t: FAILED (log $log)"
+    tail -n 40 "$log"
+    ls "$BUILD/fuzz-artifacts/$t-"* 2>/dev/null | sed 's/^/  reproducer: /' || true
+    echo "  add the reproducer to tests/fuzz/regressions/$t/ and fix the parser"
+  fi
+done
+exit $status
