@@ -458,16 +458,17 @@ void bind_validation(pyb::module_& m) {
       .def_property_readonly("target_sample_count", &GraspChecker::target_sample_count)
       .def(
           "check",
-          [](const GraspChecker& c, const pyb::object& wrist_pose, const pyb::object& dofs) {
+          [](const GraspChecker& c, const pyb::object& wrist_pose, const pyb::object& dofs, bool exact_depth) {
             const Pose w = pose_from(wrist_pose, "wrist_pose");
             const Eigen::VectorXd q = vector_from(dofs, "dofs");
             pyb::gil_scoped_release release;
-            return c.check(w, q);
+            return c.check(w, q, exact_depth);
           },
-          "wrist_pose"_a, "dofs"_a, "Check one 4x4 wrist pose and DOF vector: CheckResult.")
+          "wrist_pose"_a, "dofs"_a, "exact_depth"_a = true,
+          "Check one 4x4 wrist pose and DOF vector: CheckResult (exact_depth as check_many).")
       .def(
           "check_many",
-          [](const GraspChecker& c, const pyb::object& poses, const pyb::object& dofs, int threads) {
+          [](const GraspChecker& c, const pyb::object& poses, const pyb::object& dofs, int threads, bool exact_depth) {
             const DoubleArray P = as_double_array(poses, "poses");
             if (P.ndim() != 3 || P.shape(1) != 4 || P.shape(2) != 4)
               throw std::invalid_argument("poses: expected a (K, 4, 4) array, got shape " + shape_of(P));
@@ -483,11 +484,13 @@ void bind_validation(pyb::module_& m) {
               qs.emplace_back(Eigen::Map<const Eigen::VectorXd>(Q.data() + D * k, D));
             }
             pyb::gil_scoped_release release;
-            return c.check_many(wrists, qs, threads);
+            return c.check_many(wrists, qs, threads, exact_depth);
           },
-          "poses"_a, "dofs"_a, "threads"_a = -1,
+          "poses"_a, "dofs"_a, "threads"_a = -1, "exact_depth"_a = true,
           "check() for every (poses[k], dofs[k]) -- poses (K,4,4), dofs (K,D) -- on `threads` threads (-1: the "
-          "checker's setting; 0: all cores), GIL released. Same results as serial check() calls.")
+          "checker's setting; 0: all cores), GIL released. Same results as serial check() calls. With "
+          "exact_depth=False the depth search of a link stops once it prunes the pose: flags and reasons are "
+          "unchanged, a depth beyond the tolerance is a lower bound (faster, for searches).")
       .def(
           "close",
           [](const GraspChecker& c, const pyb::object& wrist_pose, const pyb::object& dofs, const pyb::object& directions,

@@ -97,7 +97,8 @@ SurfaceSamples make_samples(const Mesh& mesh, double spacing) {
 }
 
 double deepest_inside(const SurfaceSamples& samples, const Pose& to_b, const SurfaceQuery& b,
-                      const Eigen::AlignedBox3d& b_bounds, const std::vector<char>& components, double known) {
+                      const Eigen::AlignedBox3d& b_bounds, const std::vector<char>& components, double known,
+                      double stop) {
   const Bvh& tree = samples.tree;
   if (tree.empty()) return known;
   // Best first: nodes ordered by the deepest any of their samples could be. Signed distance is
@@ -140,6 +141,7 @@ double deepest_inside(const SurfaceSamples& samples, const Pose& to_b, const Sur
         if (!b_bounds.contains(p)) continue;
         const double sd = b.signed_distance_hint(p, e.abs_sd + (p - e.centre).norm());
         if (sd < 0.0) best = std::max(best, -sd);
+        if (best > stop) return best;
       }
     } else {
       for (std::int32_t child : {node.first, node.first + 1}) {
@@ -286,7 +288,7 @@ GraspChecker::Impl::Impl(const Hand& hand_in, const Mesh& target_in, const Mask&
   }
 }
 
-vd::PairCheck GraspChecker::Impl::check_pair(int l, const Pose& pose, int s) const {
+vd::PairCheck GraspChecker::Impl::check_pair(int l, const Pose& pose, int s, double stop) const {
   const vd::LinkModel& L = links[l];
   const vd::SceneModel& S = scene[s];
   vd::PairCheck r;
@@ -318,10 +320,10 @@ vd::PairCheck GraspChecker::Impl::check_pair(int l, const Pose& pose, int s) con
         if (L.bounds.contains(q) && L.query->signed_distance(q) < 0.0) comp_in[c] = any = true;
       }
     }
-    if (any) depth = vd::deepest_inside(T, inv, *L.query, L.bounds, comp_in, depth);
+    if (any) depth = vd::deepest_inside(T, inv, *L.query, L.bounds, comp_in, depth, stop);
   }
   // Link samples inside the scene mesh.
-  if (S.query->closed()) {
+  if (S.query->closed() && depth <= stop) {
     std::vector<char> comp_in;
     bool any = r.intersecting;
     if (!r.intersecting) {
@@ -332,7 +334,7 @@ vd::PairCheck GraspChecker::Impl::check_pair(int l, const Pose& pose, int s) con
         if (S.bounds.contains(p) && S.query->signed_distance(p) < 0.0) comp_in[c] = any = true;
       }
     }
-    if (any) depth = vd::deepest_inside(L.samples, pose, *S.query, S.bounds, comp_in, depth);
+    if (any) depth = vd::deepest_inside(L.samples, pose, *S.query, S.bounds, comp_in, depth, stop);
   }
   r.depth = depth;
   r.inside = depth > 0.0;
@@ -382,7 +384,10 @@ std::vector<Pose> GraspChecker::Impl::target_frame_poses(const Pose& wrist, cons
   return poses;
 }
 
-CheckResult GraspChecker::Impl::check_poses(const std::vector<Pose>& poses) const {
+CheckResult GraspChecker::Impl::check_poses(const std::vector<Pose>& poses, bool exact_depth) const {
+  // Without exact depths, a link is searched only until it is known to prune the pose: beyond the
+  // tolerance in the target, or any depth in an obstacle.
+  const double inf = std::numeric_limits<double>::infinity();
   CheckResult r;
   r.links.resize(links.size());
   std::vector<std::string> deep, hit_obstacle, occluding;
@@ -390,7 +395,8 @@ CheckResult GraspChecker::Impl::check_poses(const std::vector<Pose>& poses) cons
     LinkCheck& lc = r.links[l];
     lc.link = links[l].name;
     for (std::size_t s = 0; s < scene.size(); ++s) {
-      const vd::PairCheck pc = check_pair(static_cast<int>(l), poses[l], static_cast<int>(s));
+      const double stop = exact_depth ? inf : (scene[s].obstacle ? 0.0 : options.depth_tolerance);
+      const vd::PairCheck pc = check_pair(static_cast<int>(l), poses[l], static_cast<int>(s), stop);
       if (!pc.intersecting && !pc.inside) continue;
       CollisionPair pair;
       pair.link = lc.link;
@@ -440,13 +446,13 @@ GraspChecker::GraspChecker(const Hand& hand, const Mesh& target, const Mask& fre
                            const std::vector<Obstacle>& obstacles, const CheckOptions& options)
     : impl_(std::make_shared<const Impl>(hand, target, free, obstacles, options)) {}
 
-CheckResult GraspChecker::check(const Pose& wrist, const Eigen::VectorXd& dofs) const {
-  return impl_->check_poses(impl_->target_frame_poses(wrist, dofs));
+CheckResult GraspChecker::check(const Pose& wrist, const Eigen::VectorXd& dofs, bool exact_depth) const {
+  return impl_->check_poses(impl_->target_frame_poses(wrist, dofs), exact_depth);
 }
 
 std::vector<CheckResult> GraspChecker::check_many(const std::vector<Pose>& wrists,
                                                   const std::vector<Eigen::VectorXd>& dofs,
-                                                  int threads) const {
+                                                  int threads, bool exact_depth) const {
   if (wrists.size() != dofs.size())
     throw std::invalid_argument("dofs: expected " + std::to_string(wrists.size()) +
                                 " DOF vectors (one per wrist pose), got " + std::to_string(dofs.size()));
@@ -454,7 +460,7 @@ std::vector<CheckResult> GraspChecker::check_many(const std::vector<Pose>& wrist
     check_rigid(wrists[k], ("wrists[" + std::to_string(k) + "]").c_str());
   std::vector<CheckResult> out(wrists.size());
   const int t = threads < 0 ? impl_->options.threads : threads;
-  vd::parallel_for(wrists.size(), t, [&](std::size_t k) { out[k] = check(wrists[k], dofs[k]); });
+  vd::parallel_for(wrists.size(), t, [&](std::size_t k) { out[k] = check(wrists[k], dofs[k], exact_depth); });
   return out;
 }
 

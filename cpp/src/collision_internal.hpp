@@ -8,6 +8,7 @@
 #include <fcl/geometry/bvh/BVH_model.h>
 #include <fcl/math/bv/OBBRSS.h>
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -42,10 +43,11 @@ SurfaceSamples make_samples(const Mesh& mesh, double spacing);
 /// `b_bounds`, in B's frame)), the samples mapped into B's frame by `to_b`. When `components` is
 /// not empty only samples of flagged components count. Best-first branch and bound over the
 /// samples' tree: signed distance is 1-Lipschitz, so a node's ball is skipped when it is wholly
-/// outside or cannot beat the best depth so far (starting from `known`).
+/// outside or cannot beat the best depth so far (starting from `known`). The search stops as soon
+/// as a depth beyond `stop` (m) is found; that depth is then a lower bound of the largest.
 double deepest_inside(const SurfaceSamples& samples, const Pose& to_b, const SurfaceQuery& b,
                       const Eigen::AlignedBox3d& b_bounds, const std::vector<char>& components,
-                      double known = 0.0);
+                      double known = 0.0, double stop = std::numeric_limits<double>::infinity());
 
 /// A hand link ready for checks.
 struct LinkModel {
@@ -99,12 +101,15 @@ struct GraspChecker::Impl {
   Impl(const Hand& hand, const Mesh& target, const Mask& free, const std::vector<Obstacle>& obstacles,
        const CheckOptions& options);
 
-  /// One link (index l, pose in the target frame) against scene model s.
-  validation_detail::PairCheck check_pair(int l, const Pose& pose, int s) const;
+  /// One link (index l, pose in the target frame) against scene model s. The depth searches stop
+  /// once a depth beyond `stop` (m) is found (a lower bound then).
+  validation_detail::PairCheck check_pair(int l, const Pose& pose, int s,
+                                          double stop = std::numeric_limits<double>::infinity()) const;
   /// Whether link l at `pose` comes within the contact gap of an occluded target face.
   bool touches_occluded(int l, const Pose& pose) const;
-  /// Full check at link poses already in the target frame.
-  CheckResult check_poses(const std::vector<Pose>& poses) const;
+  /// Full check at link poses already in the target frame (depths exact unless `exact_depth` is
+  /// false: see GraspChecker::check).
+  CheckResult check_poses(const std::vector<Pose>& poses, bool exact_depth = true) const;
   /// Link poses in the target frame.
   std::vector<Pose> target_frame_poses(const Pose& wrist, const Eigen::VectorXd& dofs) const;
   /// Smallest FCL distance (m) between link l at `pose` (its active faces only when `active`;

@@ -253,7 +253,9 @@ def _evaluate(checker, wrist, q, center, radius, mu, edges, close, soft, torsion
             qp, qn = points[k], normals[k]
         else:
             qp, qn = points, normals
-        gq = grasp_quality(qp, qn, center, radius, mu=mu, edges=edges, soft=soft, torsion=torsion)
+        # Reduced contacts: a search, which needs no hull volume of a grasp that is not force-closure.
+        gq = grasp_quality(qp, qn, center, radius, mu=mu, edges=edges, soft=soft, torsion=torsion,
+                           open_volume=per_link is None)
         eps, vol, fc, qreason = float(gq.epsilon), float(gq.volume), bool(gq.force_closure), gq.reason
     wrist = wrist.copy()
     for a in (wrist, dofs, points, normals):
@@ -282,7 +284,9 @@ def evaluate_grasp(checker, wrist_pose, dofs, center=None, radius=None, mu=0.5, 
         close: close the closing DOFs onto contact first (else evaluate ``dofs`` as given).
         contacts_per_link: score at most this many contacts per link (:func:`reduce_contacts`): a
             lower bound of epsilon, an order of magnitude faster on contact patches of ~100
-            contacts. None: every contact. The evaluation still lists every contact.
+            contacts, and no hull volume for a grasp that is not force-closure (0; ``open_volume``
+            of :func:`pairgrasp.grasp_quality`). None: every contact. The evaluation still lists
+            every contact.
 
     Returns:
         GraspEvaluation. A pruned grasp has epsilon 0, force_closure False, and the reason.

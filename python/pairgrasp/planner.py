@@ -797,7 +797,7 @@ class Planner:
         bar.start("settle", len(cands))
         poses = np.array([c.pose for c in cands])
         dofs = np.array([c.q for c in cands])
-        first = self.checker.check_many(poses, dofs)
+        first = self.checker.check_many(poses, dofs, exact_depth=False)
         active = []
         for c, r in zip(cands, first):
             if not r.pruned:
@@ -832,7 +832,8 @@ class Planner:
         steps = self.steps()
         opened = [self._open_dofs(c.q) for c in cands]
         # Round 0: the aligned DOFs at the start pose; then the bad DOFs fully open.
-        res = self.checker.check_many(np.array([c.start_pose for c in cands]), np.array([c.start_dofs for c in cands]))
+        res = self.checker.check_many(np.array([c.start_pose for c in cands]), np.array([c.start_dofs for c in cands]),
+                                       exact_depth=False)
         state = []
         for c, op, r in zip(cands, opened, res):
             if not r.pruned:
@@ -846,7 +847,8 @@ class Planner:
             hi[dofs_bad] = op[dofs_bad]
             state.append([c, dofs_bad, c.start_dofs.copy(), hi])
         if state:
-            res = self.checker.check_many(np.array([s[0].start_pose for s in state]), np.array([s[3] for s in state]))
+            res = self.checker.check_many(np.array([s[0].start_pose for s in state]), np.array([s[3] for s in state]),
+                                           exact_depth=False)
             # Dropped: even fully open, a finger (or the palm group) is bad.
             state = [st for st, r in zip(state, res) if not r.pruned]
         while state:
@@ -855,7 +857,7 @@ class Planner:
                 m = hi.copy()
                 m[dofs_bad] = (lo[dofs_bad] + hi[dofs_bad]) / 2.0
                 mids.append(m)
-            res = self.checker.check_many(np.array([s[0].start_pose for s in state]), np.array(mids))
+            res = self.checker.check_many(np.array([s[0].start_pose for s in state]), np.array(mids), exact_depth=False)
             nxt = []
             for (c, dofs_bad, lo, hi), m, r in zip(state, mids, res):
                 bad = self._bad_links(r)
@@ -894,7 +896,7 @@ class Planner:
             state.append((c, depth0))
         while state:
             poses = np.array([self._backed(c.pose, c.backoff) for c, _ in state])
-            res = self.checker.check_many(poses, np.array([c.start_dofs for c, _ in state]))
+            res = self.checker.check_many(poses, np.array([c.start_dofs for c, _ in state]), exact_depth=False)
             nxt = []
             for (c, depth0), pose, r in zip(state, poses, res):
                 lo, hi = c.search

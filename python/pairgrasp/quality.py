@@ -293,14 +293,17 @@ def _not_closure(n_contacts, n_wrenches, rank, reason, volume=0.0):
 
 
 def grasp_quality(points, normals, center, radius, mu=0.5, edges=8, soft=False, torsion=None,
-                  soft_rings=0, max_hull_wrenches: int = 320) -> GraspQuality:
+                  soft_rings=0, max_hull_wrenches: int = 320, open_volume: bool = True) -> GraspQuality:
     """Ferrari-Canny epsilon (L1) and hull volume of a grasp given by its contacts (eq. 2-7).
 
     Args: as :func:`wrench_matrix` (points, OUTWARD normals, torque origin ``center``, torque scale
     ``radius``, friction ``mu``, pyramid ``edges``, ``soft`` contacts with ``torsion`` radius and
     ``soft_rings``), and ``max_hull_wrenches``: above this many wrenches (after dropping the
     contacts inside their normal group, which changes nothing), epsilon is computed exactly by the
-    active set of the module notes and the volume is a lower bound.
+    active set of the module notes and the volume is a lower bound. ``open_volume=False``: the
+    hull volume of a grasp that is not force-closure is not wanted, so a linear program (is the
+    origin a convex combination of the wrenches?) rules such grasps out first, without the hull
+    (volume 0, ``volume_exact`` False); force-closure results are unchanged.
 
     Returns:
         :class:`GraspQuality`. A grasp whose wrenches do not span the wrench space (e.g. two point
@@ -329,6 +332,10 @@ def grasp_quality(points, normals, center, radius, mu=0.5, edges=8, soft=False, 
                             f"rank-deficient wrench set (rank {rank} < 6): the contacts cannot "
                             f"resist every wrench")
     boundary_tol = _RTOL * float(np.linalg.norm(flat, axis=1).max())
+    if not open_volume and not _origin_in_hull(flat):
+        return GraspQuality(epsilon=0.0, volume=0.0, force_closure=False, n_contacts=n_contacts,
+                            n_wrenches=n_wrenches, rank=rank, reason="the origin is outside the wrench hull",
+                            volume_exact=False)
     if len(flat) <= max_hull_wrenches:
         out = _hull_quality(flat, tol, boundary_tol)[:3] + (True,)
     else:
@@ -339,6 +346,20 @@ def grasp_quality(points, normals, center, radius, mu=0.5, edges=8, soft=False, 
                             n_wrenches=n_wrenches, rank=rank, reason=reason, volume_exact=exact)
     return GraspQuality(epsilon=eps, volume=float(volume), force_closure=True, n_contacts=n_contacts,
                         n_wrenches=n_wrenches, rank=rank, reason="", volume_exact=exact)
+
+
+def _origin_in_hull(w: np.ndarray) -> bool:
+    """Whether the origin is a convex combination of the rows of ``w`` (an LP feasibility problem:
+    lambda >= 0, sum lambda = 1, w^T lambda = 0). Only an infeasible answer is used, to skip the
+    hull; on the boundary or when the solver is unsure it answers True and the hull decides."""
+    from scipy.optimize import linprog
+
+    n = len(w)
+    a_eq = np.vstack([w.T, np.ones((1, n))])
+    b_eq = np.zeros(7)
+    b_eq[6] = 1.0
+    res = linprog(np.zeros(n), A_eq=a_eq, b_eq=b_eq, bounds=(0, None), method="highs")
+    return res.status != 2                        # 2: infeasible
 
 
 def _group_hull_vertices(p: np.ndarray, n_in: np.ndarray) -> np.ndarray:

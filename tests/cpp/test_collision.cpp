@@ -225,6 +225,50 @@ TEST(Collision, CheckManyEqualsSerialCheck) {
   EXPECT_GT(kept, 0);
 }
 
+TEST_F(ProbeVsCube, InexactDepthStopsBeyondTheToleranceOnly) {
+  const GraspChecker checker(hand, target);  // tolerance 1.25 mm
+  // Wholly inside, 40 mm deep: still pruned, the depth a lower bound beyond the tolerance.
+  const CheckResult deep = checker.check(th::pose(Vector3d(0, 0, -0.01)), dofs1(0.0), false);
+  EXPECT_TRUE(deep.pruned && deep.penetrating);
+  EXPECT_GT(deep.depth, 0.00125);
+  EXPECT_LE(deep.depth, 0.04 + 1e-9);
+  // 1 mm in, within the tolerance: exact.
+  const CheckResult shallow = checker.check(th::pose(Vector3d(0, 0, -0.069)), dofs1(0.0), false);
+  EXPECT_NEAR(shallow.depth, 0.001, 1e-9);
+  EXPECT_FALSE(shallow.pruned);
+}
+
+TEST(Collision, InexactDepthKeepsEveryFlag) {
+  const Hand hand = th::barrett();
+  const Mesh target = tmesh::icosphere(0.04, 2, Vector3d(0, 0, 0.13));
+  const GraspChecker checker(hand, target);
+  const double tol = checker.options().depth_tolerance;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int deep = 0;
+  for (int k = 0; k < 40; ++k) {
+    const Pose w = th::pose(0.08 * Vector3d(u(rng), u(rng), u(rng)), 0.3 * u(rng), Vector3d(u(rng), u(rng), u(rng)));
+    Eigen::VectorXd q(4);
+    q << 1.5 * (1 + u(rng)), 1.2 * (1 + u(rng)), 1.2 * (1 + u(rng)), 1.2 * (1 + u(rng));
+    const CheckResult e = checker.check(w, q), f = checker.check(w, q, false);
+    ASSERT_EQ(f.pruned, e.pruned);
+    ASSERT_EQ(f.penetrating, e.penetrating);
+    ASSERT_EQ(f.collision, e.collision);
+    ASSERT_EQ(f.touches_occluded, e.touches_occluded);
+    for (size_t l = 0; l < e.links.size(); ++l) {
+      ASSERT_EQ(f.links[l].colliding, e.links[l].colliding);
+      if (e.links[l].depth <= tol) {
+        ASSERT_EQ(f.links[l].depth, e.links[l].depth);
+      } else {
+        ASSERT_GT(f.links[l].depth, tol);
+        ASSERT_LE(f.links[l].depth, e.links[l].depth);
+        ++deep;
+      }
+    }
+  }
+  EXPECT_GT(deep, 0);  // the poses exercise the early stop
+}
+
 TEST(Collision, BadInputThrows) {
   th::TempDir dir;
   const Hand hand = th::probe_hand(dir);

@@ -474,6 +474,27 @@ def test_active_set_epsilon_equals_the_full_hull(seed):
         assert q.volume < vol  # a subset's hull
 
 
+@pytest.mark.parametrize("seed", range(8))
+def test_without_open_volume_only_non_closure_changes(seed):
+    """open_volume=False rules non-closure out by a linear program: the classification and every
+    force-closure result are those of the hull; a non-closure grasp just has no volume."""
+    rng = np.random.default_rng(100 + seed)
+    n = 10
+    N = rng.normal(size=(n, 3))
+    if seed % 2:
+        N[:, 2] = np.abs(N[:, 2]) + 1.0  # normals in a cone: often not force-closure
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    P = N * 0.04 + rng.normal(scale=0.004, size=(n, 3))
+    full = pg.grasp_quality(P, N, ORIGIN, 0.05)
+    fast = pg.grasp_quality(P, N, ORIGIN, 0.05, open_volume=False)
+    assert fast.force_closure == full.force_closure
+    assert fast.epsilon == full.epsilon
+    if full.force_closure:
+        assert fast.volume == full.volume and fast.volume_exact
+    else:
+        assert fast.epsilon == 0.0
+
+
 # ------------------------------------------------------------------------------- API and errors
 
 def test_result_reads_as_object_mapping_and_sequence():
