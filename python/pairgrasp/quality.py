@@ -404,9 +404,15 @@ def _hull_quality(u: np.ndarray, tol: float, boundary_tol: float):
         return 0.0, 0.0, f"the wrenches lie in a {affine_rank}-D affine subspace that misses the origin", None
     try:
         hull = ConvexHull(u)
-    except QhullError as exc:                     # numerically flat despite the rank tests
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else "QhullError"
-        return 0.0, 0.0, f"degenerate wrench hull (qhull: {first})", None
+    except QhullError:
+        # Nearly coplanar wrenches (contacts a rounding error off a pad's edge) can make qhull's
+        # final precision check fail on a full-rank hull; joggled input (random moves of about
+        # 1e-11 of the coordinates) has no such facets and changes epsilon by as little.
+        try:
+            hull = ConvexHull(u, qhull_options="QJ")
+        except QhullError as exc:                 # numerically flat despite the rank tests
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else "QhullError"
+            return 0.0, 0.0, f"degenerate wrench hull (qhull: {first})", None
     # equations: unit outward normal a and offset b with a . x + b <= 0 inside; the origin's
     # distance to facet j is -b_j when it lies inside every facet.
     distance = float(-hull.equations[:, -1].max())

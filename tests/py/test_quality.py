@@ -453,6 +453,27 @@ def test_contacts_inside_a_flat_patch_change_nothing():
     assert q.volume == pytest.approx(vol, rel=1e-9)
 
 
+def test_pads_rounded_to_a_nanometre_keep_their_epsilon():
+    """Two opposite 6x6 pads in random orientations, their points rounded to 1e-9 m as
+    grasps.json writes them: nearly coplanar wrenches once made qhull's precision check fail and
+    epsilon read 0. Rounding moves every wrench by ~1e-9, so epsilon may move by about as much."""
+    from scipy.spatial.transform import Rotation
+
+    g = np.linspace(-0.01, 0.01, 6)
+    u, v = [a.ravel() for a in np.meshgrid(g, g)]
+    P, N = [], []
+    for sign in (1.0, -1.0):
+        P.append(np.column_stack([np.full(36, sign * 0.03), u, v + 0.004]))
+        N.append(np.tile([sign, 0.0, 0.0], (36, 1)))
+    P, N = np.concatenate(P), np.concatenate(N)
+    for seed in range(16):
+        rot = Rotation.random(random_state=seed).as_matrix()
+        exact = pg.grasp_quality(P @ rot.T, N @ rot.T, ORIGIN, 0.05)
+        rounded = pg.grasp_quality(np.round(P @ rot.T, 9), N @ rot.T, ORIGIN, 0.05)
+        assert exact.force_closure and rounded.force_closure, (seed, rounded.reason)
+        assert rounded.epsilon == pytest.approx(exact.epsilon, rel=1e-6)
+
+
 @pytest.mark.parametrize("seed", range(6))
 def test_active_set_epsilon_equals_the_full_hull(seed):
     """Random contacts with distinct normals: the active set's epsilon (forced by a tiny
