@@ -14,9 +14,6 @@
 #include <string>
 #include <vector>
 
-// assimp 5.2 leaks a few objects on some error paths of malformed files; those are its own.
-extern "C" const char* __lsan_default_suppressions() { return "leak:libassimp.so\n"; }
-
 namespace {
 
 namespace fs = std::filesystem;

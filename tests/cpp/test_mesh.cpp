@@ -27,10 +27,6 @@ using pairgrasp::MeshLoadOptions;
 using pairgrasp::Points;
 using pairgrasp::Triangles;
 
-// Under LeakSanitizer: assimp 5.2 leaks a few objects on some error paths of malformed files
-// (MutatedFilesLoadOrThrowFileError); those leaks are assimp's, not ours.
-extern "C" const char* __lsan_default_suppressions() { return "leak:libassimp.so\n"; }
-
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
