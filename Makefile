@@ -15,8 +15,11 @@ SAN_CONFIG = -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO=
 ASAN_ENV   = ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:detect_stack_use_after_return=0 \
              UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 # The Python tests against the sanitized extension: the interpreter is not instrumented, so the
-# ASan runtime is preloaded, and Python's own allocations are not reported as leaks.
-ASAN_PY_ENV = LD_PRELOAD=$$($(ASAN_CXX) -print-file-name=libasan.so) PYTHONPATH=$(ASAN_BUILD)/python \
+# ASan runtime is preloaded, and Python's own allocations are not reported as leaks. libstdc++ is
+# preloaded too: ASan finds the real __cxa_throw at start-up, and the interpreter does not link
+# libstdc++, so without it the first C++ exception aborts in ASan's interceptor.
+ASAN_PY_ENV = LD_PRELOAD="$$($(ASAN_CXX) -print-file-name=libasan.so) $$($(ASAN_CXX) -print-file-name=libstdc++.so)" \
+             PYTHONPATH=$(ASAN_BUILD)/python \
              ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
              PAIRGRASP_SANITIZED=1
 
