@@ -97,6 +97,8 @@ class PlanParams:
         reject: apply the early rejection (None: only for ``fast``).
         coarse_factor: ``fast``: the coarse grid's step in fine steps.
         refine: ``fast``: coarse samples whose fine-grid neighbourhoods are sampled.
+        refine_rounds: ``fast``: rounds of refinement; each round samples the neighbourhoods of
+            the ``refine`` best samples so far that were not centres yet.
         depth_tolerance: penetration tolerated (m); None: h / 4.
         gap: contact gap (m).
         backoff: largest back-off along the approach axis when settling (m); None: the hand's
@@ -135,6 +137,7 @@ class PlanParams:
     reject: Optional[bool] = None
     coarse_factor: int = 3
     refine: int = 6
+    refine_rounds: int = 1
     depth_tolerance: Optional[float] = None
     gap: float = 0.001
     backoff: Optional[float] = None
@@ -165,7 +168,7 @@ class PlanParams:
         if not (isinstance(self.min_match_fraction, numbers.Real) and 0.0 <= self.min_match_fraction <= 1.0):
             raise ValueError(f"min_match_fraction: expected a number in [0, 1], got {self.min_match_fraction!r}")
         for name, low in (("max_pairs", 1), ("max_area_samples", 3), ("poses_per_sample", 1),
-                          ("coarse_factor", 1), ("refine", 0), ("chunk", 1), ("fine_tune", 0), ("fine_tune_iterations", 0),
+                          ("coarse_factor", 1), ("refine", 0), ("refine_rounds", 0), ("chunk", 1), ("fine_tune", 0), ("fine_tune_iterations", 0),
                           ("edges", 3), ("top", 1), ("seed", 0), ("threads", 0)):
             _integer(name, getattr(self, name), low)
         if self.max_evaluations is not None:
@@ -683,29 +686,37 @@ class Planner:
             coarse_axes = [sorted(set(list(range(0, n, f)) + [n - 1])) for n in shape]
             coarse = list(itertools.product(*coarse_axes))
             done = run_stage(coarse, "coarse")
-            # Seeds: coarse samples ranked by their best candidate (force closure, epsilon, Q_A).
-            best: Dict[int, tuple] = {}
-            for c in done:
-                e = c.evaluation
-                key = (bool(e.force_closure), float(e.epsilon), c.quality)
-                if c.sample not in best or key > best[c.sample]:
-                    best[c.sample] = key
-            order = sorted(best, key=lambda s: (best[s], -s), reverse=True)[: p.refine]
             scheduled = set(coarse)
-            fine: List[tuple] = []
+            centres: set = set()
             r = max(f // 2, 1)
-            for s in order:
-                centre = tuple(int(np.argmin(np.abs(axes[d] - samples[s][d]))) for d in range(len(axes)))
-                for off in itertools.product(*[range(-r, r + 1)] * len(axes)):
-                    idx = tuple(min(max(c + o, 0), n - 1) for c, o, n in zip(centre, off, shape))
-                    if idx not in scheduled:
-                        scheduled.add(idx)
-                        fine.append(idx)
-            if fine and not out_of_time():
+            for _ in range(p.refine_rounds):
+                # Seeds: the samples searched so far, ranked by their best candidate (force closure,
+                # epsilon, Q_A), that have not been a centre yet; their unsampled fine-grid
+                # neighbours are the next stage (a later round climbs from the best of the last).
+                best: Dict[int, tuple] = {}
+                for c in cands:
+                    e = c.evaluation
+                    key = (bool(e.force_closure), float(e.epsilon), c.quality)
+                    if c.sample not in best or key > best[c.sample]:
+                        best[c.sample] = key
+                order = [s for s in sorted(best, key=lambda s: (best[s], -s), reverse=True) if s not in centres]
+                order = order[: p.refine]
+                centres.update(order)
+                fine: List[tuple] = []
+                for s in order:
+                    centre = tuple(int(np.argmin(np.abs(axes[d] - samples[s][d]))) for d in range(len(axes)))
+                    for off in itertools.product(*[range(-r, r + 1)] * len(axes)):
+                        idx = tuple(min(max(c + o, 0), n - 1) for c, o, n in zip(centre, off, shape))
+                        if idx not in scheduled:
+                            scheduled.add(idx)
+                            fine.append(idx)
+                if not fine:
+                    break
+                if out_of_time():
+                    counts["samples"] += len(fine)
+                    counts["skipped"] += len(fine)
+                    break
                 run_stage(fine, "refine")
-            elif fine:
-                counts["samples"] += len(fine)
-                counts["skipped"] += len(fine)
         timings.update(stage_t)
 
         t = time.perf_counter()

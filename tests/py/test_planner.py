@@ -134,6 +134,23 @@ def test_time_limit_stops_the_search_between_chunks(jaw_planner):
     assert again == plain
 
 
+def test_fast_refine_rounds_climb_from_the_last_round(jaw_planner):
+    """Round 0 is the coarse grid alone (every third value and the upper limit); each further
+    round appends samples (the neighbours of the best samples not yet a centre) and keeps every
+    earlier candidate, so the best candidate's epsilon never falls."""
+    hand = jaw_planner.hand
+    n = len(pg.dof_grid(hand.dof_lower, hand.dof_upper, hand.dof_step)[0])
+    runs = [jaw_planner.plan(progress=False, fine_tune=0, refine_rounds=k) for k in range(4)]
+    assert runs[0].counts["samples"] == len(set(range(0, n, 3)) | {n - 1})
+    for a, b in zip(runs, runs[1:]):
+        assert b.counts["samples"] >= a.counts["samples"]
+        best = lambda r: max((c.epsilon for c in r.candidates), default=0.0)  # noqa: E731
+        assert best(b) >= best(a)
+        key = lambda c: (c.sample, c.epsilon, c.alignment_quality)  # noqa: E731
+        assert [key(c) for c in b.candidates[:len(a.candidates)]] == [key(c) for c in a.candidates]
+    assert runs[0].counts["samples"] < runs[1].counts["samples"] <= n
+
+
 def test_grid_schedule_runs_every_sample(jaw_planner):
     r = jaw_planner.plan(schedule="grid", progress=False, fine_tune=0)
     n = len(pg.dof_grid(jaw_planner.hand.dof_lower, jaw_planner.hand.dof_upper, jaw_planner.hand.dof_step)[0])
@@ -189,7 +206,7 @@ def test_match_fraction_equals_brute_force(jaw_planner):
 @pytest.mark.parametrize("field, value", [
     ("schedule", "random"), ("step", -0.1), ("step", float("nan")), ("top", 0), ("min_match_fraction", 1.5),
     ("constellation", "hull"), ("poses_per_sample", 0), ("contacts_per_link", 0), ("edge", 0.0),
-    ("chunk", 0), ("time_limit", 0.0), ("time_limit", -1.0),
+    ("chunk", 0), ("time_limit", 0.0), ("time_limit", -1.0), ("refine_rounds", -1),
 ])
 def test_bad_parameters_name_the_field(field, value):
     p = dataclasses.replace(pg.PlanParams(), **{field: value})
