@@ -83,8 +83,11 @@ Mesh load_mesh(const std::string& path, const MeshLoadOptions& options) {
     throw FileError(path, message);
   };
 
-  // PLY: our own reader (see mesh_ply.cpp for why not assimp's).
-  if (detail::has_ply_magic(head)) {
+  // PLY: our own reader (see mesh_ply.cpp for why not assimp's), for every .ply file and
+  // anything else that starts like one (but a binary STL, whose 80-byte header is free text), so
+  // that no PLY-like file reaches assimp's PLY importer.
+  const std::string ext = lower(fs::path(path).extension().string());
+  if (ext == ".ply" || (ext != ".stl" && detail::has_ply_magic(head))) {
     Points vertices;
     Triangles faces;
     detail::read_ply(path, read_all(path), vertices, faces);
@@ -92,7 +95,7 @@ Mesh load_mesh(const std::string& path, const MeshLoadOptions& options) {
   }
 
   // COLLADA: read the unit, and check what assimp cannot be trusted with, before assimp parses.
-  bool collada = lower(fs::path(path).extension().string()) == ".dae" || detail::looks_like_collada(head);
+  bool collada = ext == ".dae" || detail::looks_like_collada(head);
   double unit = 1.0;
   if (collada) unit = detail::check_collada(path, read_all(path));
 

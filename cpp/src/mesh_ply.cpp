@@ -179,7 +179,11 @@ class PlyBody {
 }  // namespace
 
 bool has_ply_magic(const std::string& head) {
-  return head.size() >= 4 && head.compare(0, 3, "ply") == 0 && (head[3] == '\n' || head[3] == '\r');
+  // Anything that starts like a PLY file: assimp's PLY importer claims such files too (and hangs
+  // on some), so the reader below takes them all and refuses a malformed first line itself.
+  return head.size() >= 3 && std::tolower(static_cast<unsigned char>(head[0])) == 'p' &&
+         std::tolower(static_cast<unsigned char>(head[1])) == 'l' &&
+         std::tolower(static_cast<unsigned char>(head[2])) == 'y';
 }
 
 void read_ply(const std::string& path, const std::string& data, Points& vertices, Triangles& faces) {

@@ -406,6 +406,13 @@ TEST_F(MeshFiles, BinaryStlWhoseHeaderStartsWithSolid) {
   expect_box(load_mesh(file("solid_header.stl")), Eigen::Vector3d(0.02, 0.03, 0.04), Eigen::Vector3d::Zero());
 }
 
+TEST_F(MeshFiles, BinaryStlWhoseHeaderStartsWithPlyIsStillStl) {
+  // Files that start like PLY go to pairgrasp's PLY reader, but a binary STL's header is free text.
+  const TriMesh box = make_box(Eigen::Vector3d(0.02, 0.03, 0.04));
+  write_binary_stl(file("ply_header.stl"), box, "ply-exporter 2.1");
+  expect_box(load_mesh(file("ply_header.stl")), Eigen::Vector3d(0.02, 0.03, 0.04), Eigen::Vector3d::Zero());
+}
+
 TEST_F(MeshFiles, AsciiStlCubeWeldsToEightVertices) {
   const double side = 2.5;
   const Eigen::Vector3d lo(-1.0, 4.0, 0.5);
@@ -898,6 +905,14 @@ TEST_F(MeshFiles, MalformedPlyIsReportedNotHungOrAborted) {
   const std::string bin = read_text(file("full_bin.ply"));
   write_text(file("cut_bin.ply"), bin.substr(0, bin.size() - 20));
   expect_file_error([&] { load_mesh(file("cut_bin.ply")); }, file("cut_bin.ply"), "ends early");
+
+  // Found by fuzzing: a first line "ply\0" is not PLY magic to a strict reader, and assimp's PLY
+  // importer, which took the file, hung on it; every .ply file and anything starting with "ply"
+  // is pairgrasp's reader's, and this is refused at once.
+  write_text(file("nul_magic.ply"), std::string("ply\0\n", 5) + full.substr(4));
+  expect_file_error([&] { load_mesh(file("nul_magic.ply")); }, file("nul_magic.ply"), "not a PLY file");
+  write_text(file("nul_magic.obj"), std::string("ply\0\n", 5) + full.substr(4));
+  expect_file_error([&] { load_mesh(file("nul_magic.obj")); }, file("nul_magic.obj"), "not a PLY file");
 
   std::string huge = full;
   huge.replace(huge.find("element face 8"), 14, "element face 9999999999999");
