@@ -499,7 +499,7 @@ def main(argv=None) -> int:
                    help="stop the approach-ray baseline after this many seconds (0: run every trial)")
     g = ap.add_argument_group("scaling / budget")
     g.add_argument("--scaling-target", default="flask")
-    g.add_argument("--sizes", type=int, nargs="+", default=[1000, 2000, 4000, 8000],
+    g.add_argument("--sizes", type=int, nargs="+", default=[1000, 2000, 4000, 8000, 14000, 20000],
                    help="unit facet counts wanted")
     g.add_argument("--samples", type=int, default=2, help="DOF samples aligned per size (median reported)")
     g.add_argument("--max-pairs", type=float, default=4e8, help="pair budget of the scaling runs")
