@@ -720,7 +720,7 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
     if picture:
         from .render import simulation_figure
 
-        out_png = os.path.join(base, "simulation.png")
+        out_png = os.path.join(os.path.dirname(str(path)), "simulation.png")  # beside it, as the user named it
         tmp_png = out_png + ".part.png"
         simulation_figure([g.epsilon for g in grasps], results, sim.params, tmp_png,
                           title=f"{hand.name} on {os.path.basename(str(inputs.get('target', 'target')))}")
