@@ -148,8 +148,10 @@ inline Outcome hand_target(const std::uint8_t* data, std::size_t size) {
   const fs::path spec = dir / "hand.json", urdf = dir / "hand.urdf";
   if (cut == std::string::npos) {
     write_file(spec, data, size);
+    std::error_code ec;
     fs::copy_file(fs::path(PAIRGRASP_MODEL_DIR) / "parallel_jaw" / "parallel_jaw.urdf", urdf,
-                  fs::copy_options::overwrite_existing);
+                  fs::copy_options::overwrite_existing, ec);
+    if (ec) bug("copy_file", "cannot copy the parallel jaw's URDF to " + urdf.string() + ": " + ec.message());
   } else {
     const std::size_t rest = cut + std::char_traits<char>::length(hand_separator());
     write_file(spec, data, cut);
