@@ -22,8 +22,8 @@ mkdir -p "$BUILD/fuzz-artifacts" "$BUILD/fuzz-logs"
 # are seeded and counted (about what 30 s gives each harness on a loaded 2-core machine), so CI
 # replays the inputs already explored here instead of failing on a new find at random; set
 # FUZZ_SEED (0: libFuzzer picks one) and FUZZ_RUNS (-1: until SECONDS_EACH) to explore further.
-FLAGS=(-max_total_time="$SECONDS_EACH" -timeout=10 -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1
-       -seed="${FUZZ_SEED:-1}")
+LIMITS=(-timeout=10 -rss_limit_mb=2048)
+FLAGS=(-max_total_time="$SECONDS_EACH" "${LIMITS[@]}" -max_len=65536 -print_final_stats=1 -seed="${FUZZ_SEED:-1}")
 declare -A RUNS=([mesh_stl]=1500 [mesh_obj]=500 [mesh_ply]=2000 [mesh_dae]=12000 [hand]=7000 [paint]=20000
                  [grasps]=20000)
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:symbolize=1}"
@@ -63,7 +63,7 @@ for t in "${TARGETS[@]}"; do
     # three times when replayed) was a failure of the run, not of the input: the harness is run
     # once more from scratch and fails the check only if that run fails too.
     repro=$(ls "$BUILD/fuzz-artifacts/$t-"* 2>/dev/null | head -n 1 || true)
-    if [ -n "$repro" ] && "${cmd[@]}" -runs=3 -timeout=10 -rss_limit_mb=2048 "$repro" >"$log.replay" 2>&1; then
+    if [ -n "$repro" ] && "${cmd[@]}" -runs=3 "${LIMITS[@]}" "$repro" >"$log.replay" 2>&1; then
       echo "fuzz $t: the reproducer $repro passes when replayed alone; running the harness again"
       mv "$log" "$log.first"
       rm -rf "$BUILD/fuzz-corpus/$t"
