@@ -23,7 +23,12 @@ Stages (the keys of :attr:`PlanResult.timings`):
     uses the same rejection only when ``reject`` is set.
 ``align``
     The three-pass alignment of every kept sample (all cores); the best ``poses_per_sample`` poses
-    of each become candidates.
+    of each become candidates (3 on the grid, 6 on ``fast``). Where force closure is rare,
+    ``fast`` then *deepens*: while under ``min_force_closure_rate`` of the evaluated candidates
+    are force-closure, the next-ranked pose of every coarse sample becomes a candidate too, one
+    rank at a time up to ``max_poses_per_sample``. The extra poses come from alignments already
+    made; Q_A hardly orders epsilon (Figure 8), so on a target like the mug, where ~1% of the
+    candidates close, the poses below the first few are where the good grasps are.
 ``settle``
     A candidate is kept as aligned when it does not penetrate (depth within ``depth_tolerance``, no
     occluded face, no obstacle). Otherwise it is *adjusted* with the least change to the aligned
@@ -91,7 +96,8 @@ class PlanParams:
         spacing: area-sample spacing (m); None: the smallest multiple of h giving at most
             ``max_area_samples`` samples at mid-range.
         max_area_samples: see ``spacing``.
-        poses_per_sample: aligned poses per DOF sample that become candidates.
+        poses_per_sample: aligned poses per DOF sample that become candidates (None: the
+            schedule's, 3 for ``grid`` and 6 for ``fast``).
         min_match_fraction: early rejection threshold, relative to the best sample of the first
             grid (the fraction of a sample's gripper pairs that match a target pair).
         reject: apply the early rejection (None: only for ``fast``).
@@ -99,6 +105,11 @@ class PlanParams:
         refine: ``fast``: coarse samples whose fine-grid neighbourhoods are sampled.
         refine_rounds: ``fast``: rounds of refinement; each round samples the neighbourhoods of
             the ``refine`` best samples so far that were not centres yet.
+        min_force_closure_rate, max_poses_per_sample: ``fast``: while a smaller fraction than
+            ``min_force_closure_rate`` of the evaluated candidates is force-closure after the
+            coarse grid, the next-ranked aligned pose of every coarse sample becomes a candidate
+            too, one rank at a time, up to ``max_poses_per_sample`` poses per sample: a target where
+            force closure is rare gets more pose hypotheses from the alignments already made.
         depth_tolerance: penetration tolerated (m); None: h / 4.
         gap: contact gap (m).
         backoff: largest back-off along the approach axis when settling (m); None: the hand's
@@ -132,12 +143,14 @@ class PlanParams:
     constellation: str = "auto"
     spacing: Optional[float] = None
     max_area_samples: int = 24
-    poses_per_sample: int = 3
+    poses_per_sample: Optional[int] = None
     min_match_fraction: float = 0.15
     reject: Optional[bool] = None
     coarse_factor: int = 3
     refine: int = 6
     refine_rounds: int = 1
+    min_force_closure_rate: float = 0.05
+    max_poses_per_sample: int = 12
     depth_tolerance: Optional[float] = None
     gap: float = 0.001
     backoff: Optional[float] = None
@@ -165,9 +178,13 @@ class PlanParams:
                 _positive(name, v, allow_zero=name in ("backoff", "depth_tolerance"))
         _positive("gap", self.gap, allow_zero=True)
         _positive("mu", self.mu, allow_zero=True)
-        if not (isinstance(self.min_match_fraction, numbers.Real) and 0.0 <= self.min_match_fraction <= 1.0):
-            raise ValueError(f"min_match_fraction: expected a number in [0, 1], got {self.min_match_fraction!r}")
-        for name, low in (("max_pairs", 1), ("max_area_samples", 3), ("poses_per_sample", 1),
+        for name in ("min_match_fraction", "min_force_closure_rate"):
+            v = getattr(self, name)
+            if not (isinstance(v, numbers.Real) and not isinstance(v, bool) and 0.0 <= v <= 1.0):
+                raise ValueError(f"{name}: expected a number in [0, 1], got {v!r}")
+        if self.poses_per_sample is not None:
+            _integer("poses_per_sample", self.poses_per_sample, 1)
+        for name, low in (("max_pairs", 1), ("max_area_samples", 3), ("max_poses_per_sample", 1),
                           ("coarse_factor", 1), ("refine", 0), ("refine_rounds", 0), ("chunk", 1), ("fine_tune", 0), ("fine_tune_iterations", 0),
                           ("edges", 3), ("top", 1), ("seed", 0), ("threads", 0)):
             _integer(name, getattr(self, name), low)
@@ -175,6 +192,11 @@ class PlanParams:
             _integer("max_evaluations", self.max_evaluations, 1)
         if self.contacts_per_link is not None:
             _integer("contacts_per_link", self.contacts_per_link, 1)
+
+    def poses(self) -> Tuple[int, int]:
+        """(poses per sample, poses per coarse sample at most) of this schedule."""
+        first = self.poses_per_sample if self.poses_per_sample is not None else (6 if self.schedule == "fast" else 3)
+        return first, (max(first, self.max_poses_per_sample) if self.schedule == "fast" else first)
 
 
 def _positive(name, value, allow_zero=False):
@@ -301,6 +323,7 @@ class PlanResult:
             "inputs": self.inputs,
             # Every parameter but threads, which changes how the plan runs, not what it finds.
             "parameters": {**{k: v for k, v in asdict(self.params).items() if k != "threads"},
+                           "poses_per_sample": self.params.poses()[0],
                            "edge": _round(self.edge), "d_max": _round(self.d_max),
                            "constellation": self.constellation,
                            "spacing": None if self.spacing is None else _round(self.spacing)},
@@ -376,6 +399,7 @@ class _Cand:
     pose: np.ndarray
     quality: float
     votes: int
+    rank: int = 0
     start_pose: Optional[np.ndarray] = None
     start_dofs: Optional[np.ndarray] = None
     backoff: float = 0.0
@@ -383,6 +407,12 @@ class _Cand:
     settled: str = ""
     evaluation: object = None
     time: float = 0.0
+
+
+def _rank_key(c: _Cand) -> tuple:
+    """The ranking of evaluated candidates, best last: not pruned, force closure, epsilon, Q_A, votes."""
+    e = c.evaluation
+    return (not e.pruned, bool(e.force_closure), float(e.epsilon), c.quality, c.votes)
 
 
 def with_overrides(cls, params, overrides: dict, what: str):
@@ -470,7 +500,9 @@ class Planner:
             self.spacing = float(p.spacing) if p.spacing is not None else self._area_spacing(mid)
         self.tindex = _core.build_target_index(self.target, edge=self.edge, d_max=self.d_max, free=free,
                                                max_pairs=int(p.max_pairs), threads=p.threads)
-        self.aligner = _core.Aligner(self.tindex.index, max_poses=max(p.poses_per_sample, 1), threads=p.threads)
+        self.aligner = self._aligner(max(PlanParams(schedule="grid", poses_per_sample=p.poses_per_sample).poses()[1],
+                                         PlanParams(schedule="fast", poses_per_sample=p.poses_per_sample,
+                                                    max_poses_per_sample=p.max_poses_per_sample).poses()[1]))
         depth_tol = p.depth_tolerance if p.depth_tolerance is not None else self.edge / 4.0
         self.depth_tolerance = float(depth_tol)
         self.checker = _core.GraspChecker(self.hand, self.target, free=free, obstacles=self.obstacles,
@@ -612,12 +644,14 @@ class Planner:
         timings = {"index": self.setup_time}
         counts = {"unit_facets": int(len(self.tindex.facets.points)), "stored_pairs": int(len(self.tindex.index.pairs)),
                   "samples": 0, "rejected": 0, "aligned_samples": 0, "aligned_poses": 0, "settled": 0,
-                  "settled_aligned": 0, "evaluated": 0, "force_closure": 0, "skipped": 0}
+                  "settled_aligned": 0, "evaluated": 0, "force_closure": 0, "skipped": 0, "deepened_poses": 0}
         lo = np.asarray(self.hand.dof_lower, float)
         hi = np.asarray(self.hand.dof_upper, float)
         steps = self.steps(p.step)
         axes = dof_grid(lo, hi, steps)
         reject = p.reject if p.reject is not None else (p.schedule == "fast")
+        first_poses, most_poses = p.poses()
+        aligner = self.aligner if most_poses <= self.aligner.max_poses else self._aligner(most_poses)
 
         samples: List[np.ndarray] = []
         cands: List[_Cand] = []
@@ -629,7 +663,23 @@ class Planner:
         def out_of_time() -> bool:
             return p.time_limit is not None and time.perf_counter() - start >= p.time_limit
 
-        def run_stage(index_tuples, label):
+        def process(new: List[_Cand]) -> List[_Cand]:
+            """Settles and evaluates aligned candidates; returns the evaluated ones."""
+            t = time.perf_counter()
+            settled = self._settle(new, quiet)
+            counts["settled"] += len(settled)
+            counts["settled_aligned"] += sum(c.settled == "aligned" for c in settled)
+            stage_t["settle"] += time.perf_counter() - t
+            t = time.perf_counter()
+            ev = self._evaluate(settled, len(cands), seen, p, quiet, start)
+            counts["evaluated"] += len(ev)
+            stage_t["evaluate"] += time.perf_counter() - t
+            cands.extend(ev)
+            return ev
+
+        quiet = _Progress(False)
+
+        def run_stage(index_tuples, label, extras=None):
             t = time.perf_counter()
             qs = [np.array([axes[d][k] for d, k in enumerate(idx)]) for idx in index_tuples]
             counts["samples"] += len(qs)
@@ -651,7 +701,6 @@ class Planner:
             # Align, settle and evaluate a chunk of samples at a time, so that grasps come out early
             # and a time limit stops the search between chunks.
             done: List[_Cand] = []
-            quiet = _Progress(False)
             bar.start(label, len(kept))
             for b in range(0, len(kept), p.chunk):
                 if out_of_time():
@@ -659,21 +708,12 @@ class Planner:
                     break
                 chunk = kept[b:b + p.chunk]
                 t = time.perf_counter()
-                new = self._align(chunk, samples, p, quiet)
+                new = self._align(chunk, samples, aligner, first_poses,
+                                  most_poses if extras is not None else first_poses, extras, quiet)
                 counts["aligned_samples"] += len(chunk)
                 counts["aligned_poses"] += len(new)
                 stage_t["align"] += time.perf_counter() - t
-                t = time.perf_counter()
-                settled = self._settle(new, quiet)
-                counts["settled"] += len(settled)
-                counts["settled_aligned"] += sum(c.settled == "aligned" for c in settled)
-                stage_t["settle"] += time.perf_counter() - t
-                t = time.perf_counter()
-                ev = self._evaluate(settled, len(cands), seen, p, quiet, start)
-                counts["evaluated"] += len(ev)
-                stage_t["evaluate"] += time.perf_counter() - t
-                cands.extend(ev)
-                done.extend(ev)
+                done.extend(process(new))
                 bar.advance(len(chunk))
             bar.finish()
             return done
@@ -685,18 +725,18 @@ class Planner:
             f = p.coarse_factor
             coarse_axes = [sorted(set(list(range(0, n, f)) + [n - 1])) for n in shape]
             coarse = list(itertools.product(*coarse_axes))
-            done = run_stage(coarse, "coarse")
+            extras: List[_Cand] = []
+            run_stage(coarse, "coarse", extras)
             scheduled = set(coarse)
             centres: set = set()
             r = max(f // 2, 1)
             for _ in range(p.refine_rounds):
-                # Seeds: the samples searched so far, ranked by their best candidate (force closure,
-                # epsilon, Q_A), that have not been a centre yet; their unsampled fine-grid
+                # Seeds: the samples searched so far, ranked by their best candidate (the final
+                # ranking's order), that have not been a centre yet; their unsampled fine-grid
                 # neighbours are the next stage (a later round climbs from the best of the last).
                 best: Dict[int, tuple] = {}
                 for c in cands:
-                    e = c.evaluation
-                    key = (bool(e.force_closure), float(e.epsilon), c.quality)
+                    key = _rank_key(c)
                     if c.sample not in best or key > best[c.sample]:
                         best[c.sample] = key
                 order = [s for s in sorted(best, key=lambda s: (best[s], -s), reverse=True) if s not in centres]
@@ -717,6 +757,25 @@ class Planner:
                     counts["skipped"] += len(fine)
                     break
                 run_stage(fine, "refine")
+            # Deepening: where force closure is still rare after the refinement, the coarse samples'
+            # next-ranked poses.
+            for rank in range(first_poses, most_poses):
+                n_fc = sum(bool(c.evaluation.force_closure) for c in cands)
+                if n_fc >= p.min_force_closure_rate * max(len(cands), 1) or out_of_time():
+                    break
+                new = [c for c in extras if c.rank == rank]
+                if not new:
+                    break
+                bar.start("deepen", len(new))
+                for b in range(0, len(new), p.chunk):
+                    if out_of_time():
+                        break
+                    part = new[b:b + p.chunk]
+                    counts["aligned_poses"] += len(part)
+                    counts["deepened_poses"] += len(part)
+                    process(part)
+                    bar.advance(len(part))
+                bar.finish()
         timings.update(stage_t)
 
         t = time.perf_counter()
@@ -731,20 +790,23 @@ class Planner:
                           d_max=self.d_max, constellation=self.mode, spacing=self.spacing, params=p,
                           inputs=dict(self.inputs))
 
-    def _align(self, qs, samples, p, bar) -> List[_Cand]:
+    def _align(self, qs, samples, aligner, n_poses: int, n_kept: int, extras, bar) -> List[_Cand]:
+        """Aligns the samples ``qs`` (appended to ``samples``); their best ``n_poses`` poses are
+        returned as candidates and the next ones, up to ``n_kept`` in all, appended to ``extras``."""
         out: List[_Cand] = []
         batch = 64
         bar.start("align", len(qs))
         for b in range(0, len(qs), batch):
             chunk = qs[b:b + batch]
             cons = [self.constellation(q) for q in chunk]
-            res = self.aligner.align_many(cons)
+            res = aligner.align_many(cons)
             for q, poses in zip(chunk, res):
                 samples.append(q)
                 s = len(samples) - 1
-                for pose in poses[: p.poses_per_sample]:
-                    out.append(_Cand(sample=s, q=q, pose=np.array(pose.pose), quality=float(pose.quality),
-                                     votes=int(pose.votes)))
+                for k, pose in enumerate(poses[:n_kept]):
+                    c = _Cand(sample=s, q=q, pose=np.array(pose.pose), quality=float(pose.quality),
+                              votes=int(pose.votes), rank=k)
+                    (out if k < n_poses else extras).append(c)
             bar.advance(len(chunk))
         bar.finish()
         return out
@@ -756,6 +818,11 @@ class Planner:
         out[dirs > 0] = np.asarray(self.hand.dof_lower, float)[dirs > 0]
         out[dirs < 0] = np.asarray(self.hand.dof_upper, float)[dirs < 0]
         return out
+
+    def _aligner(self, max_poses: int):
+        """An aligner over the target index returning ``max_poses`` poses at most (the best ``k``
+        poses do not depend on ``max_poses >= k``)."""
+        return _core.Aligner(self.tindex.index, max_poses=max_poses, threads=self.params.threads)
 
     def _link_groups(self) -> Tuple[np.ndarray, List[np.ndarray]]:
         """Which links each DOF moves (by forward kinematics at mid-range): (links no DOF's closing
@@ -982,12 +1049,8 @@ class Planner:
         return todo
 
     def _rank_and_tune(self, cands: List[_Cand], p, bar, out_of_time) -> List[Grasp]:
-        def key(c):
-            e = c.evaluation
-            return (not e.pruned, bool(e.force_closure), float(e.epsilon), c.quality, c.votes)
-
         kept = [c for c in cands if not c.evaluation.pruned]
-        kept.sort(key=key, reverse=True)
+        kept.sort(key=_rank_key, reverse=True)
         steps = self.steps(p.step)
         tuned = []
         n_tune = min(p.fine_tune, len(kept))

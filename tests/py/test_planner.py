@@ -140,7 +140,8 @@ def test_fast_refine_rounds_climb_from_the_last_round(jaw_planner):
     earlier candidate, so the best candidate's epsilon never falls."""
     hand = jaw_planner.hand
     n = len(pg.dof_grid(hand.dof_lower, hand.dof_upper, hand.dof_step)[0])
-    runs = [jaw_planner.plan(progress=False, fine_tune=0, refine_rounds=k) for k in range(4)]
+    runs = [jaw_planner.plan(progress=False, fine_tune=0, refine_rounds=k, min_force_closure_rate=0.0)
+            for k in range(4)]
     assert runs[0].counts["samples"] == len(set(range(0, n, 3)) | {n - 1})
     for a, b in zip(runs, runs[1:]):
         assert b.counts["samples"] >= a.counts["samples"]
@@ -149,6 +150,51 @@ def test_fast_refine_rounds_climb_from_the_last_round(jaw_planner):
         key = lambda c: (c.sample, c.epsilon, c.alignment_quality)  # noqa: E731
         assert [key(c) for c in b.candidates[:len(a.candidates)]] == [key(c) for c in a.candidates]
     assert runs[0].counts["samples"] < runs[1].counts["samples"] <= n
+
+
+def _aligned_pose_counts(planner, qs, max_poses):
+    """Poses an aligner of its own (same index, default tolerances) returns for each sample."""
+    aligner = pg.Aligner(planner.tindex.index, max_poses=max_poses)
+    return [len(poses) for poses in aligner.align_many([planner.constellation(q) for q in qs])]
+
+
+def test_schedule_poses_per_sample():
+    assert pg.PlanParams(schedule="grid").poses() == (3, 3)
+    assert pg.PlanParams(schedule="fast").poses() == (6, 12)
+    assert pg.PlanParams(schedule="grid", poses_per_sample=4).poses() == (4, 4)
+    assert pg.PlanParams(schedule="fast", poses_per_sample=4, max_poses_per_sample=2).poses() == (4, 4)
+
+
+def test_plan_time_poses_per_sample_above_the_constructors_is_honoured(jaw_planner):
+    """The planner's aligner was built for at most 12 poses per sample; asking plan() for 20 must
+    give up to 20 (what an aligner of its own returns), not silently 12."""
+    assert jaw_planner.aligner.max_poses == 12
+    r = jaw_planner.plan(schedule="grid", poses_per_sample=20, fine_tune=0, progress=False)
+    hand = jaw_planner.hand
+    qs = [np.array([v]) for v in pg.dof_grid(hand.dof_lower, hand.dof_upper, hand.dof_step)[0]]
+    expect = _aligned_pose_counts(jaw_planner, qs, 20)
+    assert max(expect) > 12
+    assert r.counts["aligned_poses"] == sum(expect)
+
+
+def test_deepening_adds_the_coarse_samples_next_poses(jaw_planner):
+    """Asked for force closure in every candidate (a rate of 1), fast takes every coarse sample's
+    poses of rank 3 to 11 after its first 3; asked for none (0), it takes none."""
+    kw = dict(progress=False, fine_tune=0, refine_rounds=0, min_match_fraction=0.0)
+    deep = jaw_planner.plan(min_force_closure_rate=1.0, **kw)
+    none = jaw_planner.plan(min_force_closure_rate=0.0, **kw)
+    assert 0 < sum(c.force_closure for c in deep.candidates) < len(deep.candidates)
+    hand = jaw_planner.hand
+    axis = pg.dof_grid(hand.dof_lower, hand.dof_upper, hand.dof_step)[0]
+    coarse = [np.array([axis[k]]) for k in sorted(set(range(0, len(axis), 3)) | {len(axis) - 1})]
+    counts = _aligned_pose_counts(jaw_planner, coarse, 12)
+    assert deep.counts["rejected"] == 0 and deep.counts["aligned_samples"] == len(coarse)
+    assert deep.counts["deepened_poses"] == sum(max(n - 3, 0) for n in counts) > 0
+    assert deep.counts["aligned_poses"] == sum(counts)
+    assert none.counts["deepened_poses"] == 0 and none.counts["aligned_poses"] == sum(min(n, 3) for n in counts)
+    # Deepening only adds candidates after the others.
+    key = lambda c: (c.sample, c.epsilon, c.alignment_quality)  # noqa: E731
+    assert [key(c) for c in deep.candidates[:len(none.candidates)]] == [key(c) for c in none.candidates]
 
 
 def test_grid_schedule_runs_every_sample(jaw_planner):
@@ -207,6 +253,7 @@ def test_match_fraction_equals_brute_force(jaw_planner):
     ("schedule", "random"), ("step", -0.1), ("step", float("nan")), ("top", 0), ("min_match_fraction", 1.5),
     ("constellation", "hull"), ("poses_per_sample", 0), ("contacts_per_link", 0), ("edge", 0.0),
     ("chunk", 0), ("time_limit", 0.0), ("time_limit", -1.0), ("refine_rounds", -1),
+    ("min_force_closure_rate", -0.1), ("min_force_closure_rate", True), ("max_poses_per_sample", 0),
 ])
 def test_bad_parameters_name_the_field(field, value):
     p = dataclasses.replace(pg.PlanParams(), **{field: value})
