@@ -157,8 +157,8 @@ def write_docs(docs: str, folder: str):
                      f" ({'met' if o['speedup'] >= 10 and o['epsilon_ratio'] >= 0.9 else 'not met'})." for o in rows)
           + " The best ε is that of the returned grasps, after fine-tuning each schedule's five best candidates, "
           "so `fast` can end above `grid` (the grid's candidates are not a superset of fast's: a pose close to "
-          "one already evaluated is not evaluated again, first come first kept). Where `fast` falls short, the "
-          "grid's best samples have no good coarse neighbour (design notes).", "",
+          "one already evaluated is not evaluated again, first come first kept). The design notes tell how "
+          "`fast` came to its coarse grid and its pose deepening.", "",
           "Q_A against ε over the evaluated candidates (Spearman rank correlation; Figure 8 shows the grid's):", "",
           "| target | fast | grid |", "|---|---|---|"]
     for o in rows:

@@ -101,7 +101,8 @@ class PlanParams:
         min_match_fraction: early rejection threshold, relative to the best sample of the first
             grid (the fraction of a sample's gripper pairs that match a target pair).
         reject: apply the early rejection (None: only for ``fast``).
-        coarse_factor: ``fast``: the coarse grid's step in fine steps.
+        coarse_factor: ``fast``: the coarse grid's step in fine steps (every ``coarse_factor``-th
+            value, and the upper limit when it lies more than half a coarse step beyond the last).
         refine: ``fast``: coarse samples whose fine-grid neighbourhoods are sampled.
         refine_rounds: ``fast``: rounds of refinement; each round samples the neighbourhoods of
             the ``refine`` best samples so far that were not centres yet.
@@ -723,7 +724,9 @@ class Planner:
             run_stage(list(itertools.product(*[range(n) for n in shape])), "grid")
         else:
             f = p.coarse_factor
-            coarse_axes = [sorted(set(list(range(0, n, f)) + [n - 1])) for n in shape]
+            # Every f-th value, and the upper limit when it lies more than half a coarse step beyond
+            # the last of them.
+            coarse_axes = [sorted(set(range(0, n, f)) | ({n - 1} if 2 * ((n - 1) % f) > f else set())) for n in shape]
             coarse = list(itertools.product(*coarse_axes))
             extras: List[_Cand] = []
             run_stage(coarse, "coarse", extras)

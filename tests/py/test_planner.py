@@ -135,14 +135,16 @@ def test_time_limit_stops_the_search_between_chunks(jaw_planner):
 
 
 def test_fast_refine_rounds_climb_from_the_last_round(jaw_planner):
-    """Round 0 is the coarse grid alone (every third value and the upper limit); each further
+    """Round 0 is the coarse grid alone (every third value, and the upper limit unless it is one
+    fine step beyond the last of them); each further
     round appends samples (the neighbours of the best samples not yet a centre) and keeps every
     earlier candidate, so the best candidate's epsilon never falls."""
     hand = jaw_planner.hand
     n = len(pg.dof_grid(hand.dof_lower, hand.dof_upper, hand.dof_step)[0])
     runs = [jaw_planner.plan(progress=False, fine_tune=0, refine_rounds=k, min_force_closure_rate=0.0)
             for k in range(4)]
-    assert runs[0].counts["samples"] == len(set(range(0, n, 3)) | {n - 1})
+    last = (n - 1) // 3 * 3  # the upper limit joins the coarse grid when 2 or more fine steps beyond
+    assert runs[0].counts["samples"] == len(range(0, n, 3)) + (1 if n - 1 - last >= 2 else 0)
     for a, b in zip(runs, runs[1:]):
         assert b.counts["samples"] >= a.counts["samples"]
         best = lambda r: max((c.epsilon for c in r.candidates), default=0.0)  # noqa: E731
@@ -195,6 +197,16 @@ def test_deepening_adds_the_coarse_samples_next_poses(jaw_planner):
     # Deepening only adds candidates after the others.
     key = lambda c: (c.sample, c.epsilon, c.alignment_quality)  # noqa: E731
     assert [key(c) for c in deep.candidates[:len(none.candidates)]] == [key(c) for c in none.candidates]
+
+
+def test_barrett_coarse_grid():
+    """At 0.25 rad the Barrett spread has 14 values (0, ..., 3.0, pi) and each flexion 11 (0, ...,
+    2.25, 2.44): the coarse grid takes every third, 5 and 4, and no upper limit, each only one
+    fine step beyond the last coarse value (320 samples, counted though a spent time limit aligns
+    none of them)."""
+    pl = pg.Planner(str(BARRETT), str(BOX), edge=0.012, top=1)
+    r = pl.plan(progress=False, step=0.25, refine_rounds=0, time_limit=1e-9)
+    assert r.counts["samples"] == 5 * 4 * 4 * 4 and r.counts["aligned_samples"] == 0
 
 
 def test_grid_schedule_runs_every_sample(jaw_planner):
