@@ -63,7 +63,7 @@ import os
 import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -108,7 +108,7 @@ class PlanParams:
             the ``refine`` best samples so far that were not centres yet.
         min_force_closure_rate, max_poses_per_sample: ``fast``: while a smaller fraction than
             ``min_force_closure_rate`` of the evaluated candidates is force-closure after the
-            coarse grid, the next-ranked aligned pose of every coarse sample becomes a candidate
+            refinement, the next-ranked aligned pose of every coarse sample becomes a candidate
             too, one rank at a time, up to ``max_poses_per_sample`` poses per sample: a target where
             force closure is rare gets more pose hypotheses from the alignments already made.
         depth_tolerance: penetration tolerated (m); None: h / 4.
@@ -501,9 +501,7 @@ class Planner:
             self.spacing = float(p.spacing) if p.spacing is not None else self._area_spacing(mid)
         self.tindex = _core.build_target_index(self.target, edge=self.edge, d_max=self.d_max, free=free,
                                                max_pairs=int(p.max_pairs), threads=p.threads)
-        self.aligner = self._aligner(max(PlanParams(schedule="grid", poses_per_sample=p.poses_per_sample).poses()[1],
-                                         PlanParams(schedule="fast", poses_per_sample=p.poses_per_sample,
-                                                    max_poses_per_sample=p.max_poses_per_sample).poses()[1]))
+        self.aligner = self._aligner(max(replace(p, schedule=s).poses()[1] for s in ("grid", "fast")))
         depth_tol = p.depth_tolerance if p.depth_tolerance is not None else self.edge / 4.0
         self.depth_tolerance = float(depth_tol)
         self.checker = _core.GraspChecker(self.hand, self.target, free=free, obstacles=self.obstacles,
@@ -664,6 +662,8 @@ class Planner:
         def out_of_time() -> bool:
             return p.time_limit is not None and time.perf_counter() - start >= p.time_limit
 
+        quiet = _Progress(False)
+
         def process(new: List[_Cand]) -> List[_Cand]:
             """Settles and evaluates aligned candidates; returns the evaluated ones."""
             t = time.perf_counter()
@@ -677,8 +677,6 @@ class Planner:
             stage_t["evaluate"] += time.perf_counter() - t
             cands.extend(ev)
             return ev
-
-        quiet = _Progress(False)
 
         def run_stage(index_tuples, label, extras=None):
             t = time.perf_counter()

@@ -134,6 +134,13 @@ def test_time_limit_stops_the_search_between_chunks(jaw_planner):
     assert again == plain
 
 
+def _coarse_indices(n):
+    """The coarse grid's indices on an axis of n values: every third, and the upper limit when it is
+    2 or more fine steps beyond the last of them."""
+    last = (n - 1) // 3 * 3
+    return list(range(0, n, 3)) + ([n - 1] if n - 1 - last >= 2 else [])
+
+
 def test_fast_refine_rounds_climb_from_the_last_round(jaw_planner):
     """Round 0 is the coarse grid alone (every third value, and the upper limit unless it is one
     fine step beyond the last of them); each further
@@ -143,8 +150,7 @@ def test_fast_refine_rounds_climb_from_the_last_round(jaw_planner):
     n = len(pg.dof_grid(hand.dof_lower, hand.dof_upper, hand.dof_step)[0])
     runs = [jaw_planner.plan(progress=False, fine_tune=0, refine_rounds=k, min_force_closure_rate=0.0)
             for k in range(4)]
-    last = (n - 1) // 3 * 3  # the upper limit joins the coarse grid when 2 or more fine steps beyond
-    assert runs[0].counts["samples"] == len(range(0, n, 3)) + (1 if n - 1 - last >= 2 else 0)
+    assert runs[0].counts["samples"] == len(_coarse_indices(n))
     for a, b in zip(runs, runs[1:]):
         assert b.counts["samples"] >= a.counts["samples"]
         best = lambda r: max((c.epsilon for c in r.candidates), default=0.0)  # noqa: E731
@@ -188,7 +194,7 @@ def test_deepening_adds_the_coarse_samples_next_poses(jaw_planner):
     assert 0 < sum(c.force_closure for c in deep.candidates) < len(deep.candidates)
     hand = jaw_planner.hand
     axis = pg.dof_grid(hand.dof_lower, hand.dof_upper, hand.dof_step)[0]
-    coarse = [np.array([axis[k]]) for k in sorted(set(range(0, len(axis), 3)) | {len(axis) - 1})]
+    coarse = [np.array([axis[k]]) for k in _coarse_indices(len(axis))]
     counts = _aligned_pose_counts(jaw_planner, coarse, 12)
     assert deep.counts["rejected"] == 0 and deep.counts["aligned_samples"] == len(coarse)
     assert deep.counts["deepened_poses"] == sum(max(n - 3, 0) for n in counts) > 0
