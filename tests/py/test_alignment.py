@@ -185,6 +185,37 @@ def test_aligner_recovers_moved_patch(target):
         assert [p.quality for p in poses] == sorted((p.quality for p in poses), reverse=True)
 
 
+def test_pose_spread_follows_its_definition(target):
+    """position_rms (m), angle_rms (rad) and the dimensionless variance as aligner.hpp defines them:
+    an exact patch supported by its true votes alone has no spread; gripper points moved by Gaussian noise of sigma per axis leave
+    position residuals of about sigma (a vote's residual is the mean of two points' noise, ~1.2 sigma
+    in 3-D, less what the fitted pose absorbs) and rotations a fraction of the angle tolerance off;
+    the variance is the weighted mean of the squared residuals, (position_rms / h)^2 +
+    (angle_rms / tau)^2."""
+    fp, fn, index = target
+    aligner = pg.Aligner(index)
+    h, tau = index.spacing, aligner.angle_tolerance
+    rng = np.random.default_rng(21)
+    sigma = 0.0003
+    only_true = 0
+    for _ in range(6):
+        sel, R, t, gp, gn = make_patch(fp, fn, rng.integers(len(fp)), 0.025, 7, rng)
+        exact = aligner.align(gp, gn)[0]
+        assert is_truth(exact, sel, R, gp, fp)
+        if exact.votes == 3 * 7 * 6 // 2:  # only the true votes (a neighbouring facet pair can join)
+            only_true += 1
+            assert exact.position_rms < 1e-8 and exact.angle_rms < 1e-9 and exact.variance < 1e-12
+        noisy = aligner.align(gp + rng.normal(scale=sigma, size=gp.shape), gn)[0]
+        assert is_truth(noisy, sel, R, gp, fp)
+        assert 0.4 * sigma < noisy.position_rms < 2.5 * sigma
+        assert 0.0 < noisy.angle_rms < tau
+        for p in (exact, noisy):
+            assert p.variance == pytest.approx((p.position_rms / h) ** 2 + (p.angle_rms / tau) ** 2,
+                                               rel=1e-9, abs=1e-15)
+            assert p.quality == pytest.approx(p.votes / (1 + p.variance))
+    assert only_true >= 3
+
+
 def test_align_many_matches_align_and_accepts_tuples_and_objects(target):
     fp, fn, index = target
     rng = np.random.default_rng(12)

@@ -2,10 +2,14 @@
 import json
 import os
 import pathlib
+import re
 import subprocess
 import sys
 
+import numpy as np
 import pytest
+
+import pairgrasp as pg
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 MODELS = ROOT / "models"
@@ -17,16 +21,129 @@ def run(*args):
                           text=True, cwd=ROOT, env=env, timeout=300)
 
 
-def test_info_on_bundled_models():
-    r = run("info", "--hand", str(MODELS / "barrett" / "barrett.json"),
-            "--target", str(MODELS / "targets" / "flask.stl"),
-            "--paint", str(MODELS / "targets" / "flask.paint.json"))
+def _numbers(text):
+    return [float(x) for x in re.findall(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?", text)]
+
+
+@pytest.mark.parametrize("target", ["mug", "flask"])
+def test_info_against_trimesh_and_the_spec(target):
+    """info's counts, area, volume, extent and centre of mass equal trimesh's (which welds the STL's
+    vertices the same way), its DOFs the hand spec's, its per-link samples the spec's active surfaces."""
+    import trimesh
+
+    hand = MODELS / "barrett" / "barrett.json"
+    mesh = MODELS / "targets" / f"{target}.stl"
+    r = run("info", "--hand", str(hand), "--target", str(mesh))
     assert r.returncode == 0, r.stderr
-    out = r.stdout
-    assert "4 DOF" in out
-    assert "7 per-link samples" in out
-    assert "closed yes" in out
-    assert "faces free" in out
+    lines = r.stdout.splitlines()
+    spec = json.loads(hand.read_text())
+    assert f"{len(spec['dofs'])} DOF" in lines[1]
+    assert [ln.split()[1] for ln in lines if ln.strip().startswith("dof ")] == [d["name"] for d in spec["dofs"]]
+    assert _numbers(next(ln for ln in lines if "per-link samples" in ln))[0] == len(spec["active_surfaces"])
+    tm = trimesh.load(str(mesh))
+    head = next(ln for ln in lines if ln.startswith("target "))
+    nv, nf = _numbers(head.split(":", 1)[1])[:2]
+    assert (nv, nf) == (len(tm.vertices), len(tm.faces))
+    assert head.endswith("closed yes") == tm.is_watertight
+    geo = _numbers(next(ln for ln in lines if "extent" in ln))
+    extent, area, volume, com = geo[0:3], geo[3], geo[5], geo[7:10]  # (skips the exponents of m^2, m^3)
+    np.testing.assert_allclose(extent, tm.extents, rtol=1e-3)
+    assert area == pytest.approx(tm.area, rel=1e-4) and volume == pytest.approx(tm.volume, rel=1e-4)
+    np.testing.assert_allclose(com, tm.center_mass, rtol=1e-3, atol=1e-6)
+
+
+def test_info_counts_the_painted_faces():
+    paint = MODELS / "targets" / "box.paint.json"
+    r = run("info", "--target", str(MODELS / "targets" / "box.stl"), "--paint", str(paint))
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(paint.read_text())
+    free = doc["faces"] - len(doc["occluded"])
+    assert f"{free} of {doc['faces']} faces free" in r.stdout
+
+
+def _write_ply(path, vertices, faces):
+    """A binary PLY with double-precision vertices (what is written is what is read, to the bit)."""
+    head = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(vertices)}\nproperty double x\n"
+            f"property double y\nproperty double z\nelement face {len(faces)}\n"
+            "property list uchar int vertex_indices\nend_header\n").encode()
+    rows = np.zeros(len(faces), dtype=[("n", "u1"), ("i", "<i4", (3,))])
+    rows["n"], rows["i"] = 3, faces
+    path.write_bytes(head + np.asarray(vertices, "<f8").tobytes() + rows.tobytes())
+    return str(path)
+
+
+def test_plan_in_millimetres_with_scale_equals_the_plan_in_metres(tmp_path):
+    """The mug in millimetres planned with --scale 0.001 gives the same grasps as the mug in metres
+    (the metre file holds the millimetre coordinates times 0.001, so the planner sees the same mesh),
+    and the scale is recorded; without --scale the millimetre mug is refused, naming --scale."""
+    mug = pg.load_mesh(str(MODELS / "targets" / "mug.stl"))
+    mm = np.asarray(mug.vertices, float) * 1000.0
+    faces = np.asarray(mug.faces)
+    files = {"m": _write_ply(tmp_path / "mug_m.ply", mm * 0.001, faces), "mm": _write_ply(tmp_path / "mug_mm.ply", mm, faces)}
+    common = ["--hand", str(MODELS / "parallel_jaw" / "parallel_jaw.json"), "--top", "3", "--seed", "1",
+              "--step", "0.5", "--pictures", "0"]
+    a = run("plan", "--target", files["m"], *common, "-o", str(tmp_path / "m"))
+    b = run("plan", "--target", files["mm"], "--scale", "0.001", *common, "-o", str(tmp_path / "mm"))
+    assert a.returncode == 0 and b.returncode == 0, a.stderr + b.stderr
+    ga = json.loads((tmp_path / "m" / "grasps.json").read_text())
+    gb = json.loads((tmp_path / "mm" / "grasps.json").read_text())
+    assert gb["inputs"]["scale"] == 0.001 and "scale" not in ga["inputs"]
+    assert gb["counts"] == ga["counts"] and len(ga["grasps"]) > 0
+    assert gb["grasps"] == ga["grasps"]
+    wrong = run("plan", "--target", files["mm"], *common, "-o", str(tmp_path / "wrong"))
+    assert wrong.returncode != 0 and "--scale" in wrong.stderr and not (tmp_path / "wrong").exists()
+
+
+def test_figures_draw_the_plans_data(tmp_path, monkeypatch, barrett_flask):
+    """`pairgrasp figures` (in process) draws Figure 8 from exactly the candidates of the same plan
+    (the session's Barrett flask plan: the candidates do not depend on fine-tuning), and Figure 7's
+    matched fractions equal a brute-force scan of the target's pair features; both PNGs are images
+    with something drawn."""
+    from matplotlib.image import imread
+
+    from pairgrasp import cli, render
+
+    planner, planned = barrett_flask
+    drawn = {}
+    save = render._save
+
+    def record(fig, path):
+        drawn[pathlib.Path(path).name] = fig
+        save(fig, path)
+
+    monkeypatch.setattr(render, "_save", record)
+    out = tmp_path / "figs"
+    assert cli.main(["figures", "--hand", str(MODELS / "barrett" / "barrett.json"),
+                     "--target", str(MODELS / "targets" / "flask.stl"),
+                     "--paint", str(MODELS / "targets" / "flask.paint.json"),
+                     "--step", "0.5", "--seed", "1", "--quiet", "-o", str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["fig7_flask.png", "fig8_flask.png"] == sorted(drawn)
+    for name in drawn:
+        img = imread(str(out / name))
+        assert img.ndim == 3 and img.shape[0] > 300 and img[..., :3].std() > 0.05
+
+    # Figure 8: grey points (not force-closure) then red ones, (Q_A, epsilon) of every candidate.
+    ax = drawn["fig8_flask.png"].axes[0]
+    grey, red = (np.asarray(c.get_offsets(), float) for c in ax.collections)
+    fc = [c for c in planned.candidates if c.force_closure]
+    nfc = [c for c in planned.candidates if not c.force_closure]
+    assert len(red) == len(fc) and len(grey) == len(nfc) and len(fc) > 0
+    np.testing.assert_allclose(red, [(c.alignment_quality, c.epsilon) for c in fc], rtol=1e-12)
+    np.testing.assert_allclose(grey, [(c.alignment_quality, c.epsilon) for c in nfc], rtol=1e-12)
+
+    # Figure 7: "DOF [...]: N% matched" for each sample, against every stored feature scanned.
+    feats = np.asarray(planner.tindex.index.features, float)
+    tol = np.asarray(planner.aligner.tolerance, float)
+    labels = [t.get_text() for t in drawn["fig7_flask.png"].axes[0].get_legend().get_texts()][1:]
+    assert len(labels) >= 3
+    for label in labels:
+        q = np.array(json.loads(label[len("DOF "):label.index("]") + 1]))
+        c = planner.constellation(q)
+        pts, nrm = np.asarray(c.points), -np.asarray(c.normals)
+        i, j = np.triu_indices(len(pts), 1)
+        f = np.asarray(pg.pair_feature(pts[i], nrm[i], pts[j], nrm[j]))
+        hit = [np.any(np.all(np.abs(feats - x) <= tol, axis=1)) for x in f]
+        assert int(label.split(": ")[1].split("%")[0]) == round(100 * sum(hit) / len(f))
 
 
 @pytest.mark.parametrize("args, needle", [
