@@ -34,7 +34,8 @@ DistanceField::DistanceField(const SurfaceQuery& query, const DistanceFieldOptio
   h_ = options.cell;
   band_ = options.band;
   const Mesh& mesh = query.mesh();
-  for (Eigen::Index v = 0; v < mesh.vertices.rows(); ++v) mesh_box_.extend(Eigen::Vector3d(mesh.vertices.row(v).transpose()));
+  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) mesh_box_.extend(Eigen::Vector3d(mesh.vertices.row(mesh.faces(f, k)).transpose()));
   // Rounding: float nodes (relative 2^-24 of values up to the grid's diagonal) and the exact
   // query's on-surface tolerance at the nodes and at the point compared with.
   Eigen::AlignedBox3d region = options.region.isEmpty() ? mesh_box_ : options.region;
