@@ -38,6 +38,11 @@ DepthBounds deepest_bounds(const SurfaceSamples& samples, const Pose& to_b, cons
   DepthBounds out;
   const Bvh& tree = samples.tree;
   if (tree.empty()) return out;
+  // Without a stop the depth is made exact: every sample that may be the deepest (its depth's
+  // upper bound reaches the certain lower bound) is kept, nodes are pruned against the lower
+  // bound only, and the kept samples are measured exactly at the end.
+  const bool exact = !std::isfinite(stop);
+  std::vector<std::pair<double, Vec3>> candidates;  // (upper bound of the depth, point)
   // Best first by the deepest any sample of a node could be: sd >= lower(centre) - radius.
   struct Entry {
     double bound;
@@ -45,6 +50,7 @@ DepthBounds deepest_bounds(const SurfaceSamples& samples, const Pose& to_b, cons
     bool operator<(const Entry& o) const { return bound < o.bound || (bound == o.bound && node > o.node); }
   };
   std::priority_queue<Entry> queue;
+  auto beaten = [&](double bound) { return bound <= 0.0 || bound <= (exact ? out.lo : out.hi); };
   auto push = [&](std::int32_t index) {
     const BvhNode& node = tree.nodes[index];
     const Vec3 lo(node.lo[0], node.lo[1], node.lo[2]), hi(node.hi[0], node.hi[1], node.hi[2]);
@@ -52,14 +58,13 @@ DepthBounds deepest_bounds(const SurfaceSamples& samples, const Pose& to_b, cons
     const Vec3 c = to_b * (0.5 * (lo + hi));
     if (box_dist2(c, b_bounds.min().data(), b_bounds.max().data()) > radius * radius) return;
     const double bound = radius - sd(c).lower;
-    if (bound <= 0.0 || bound <= out.hi) return;
-    queue.push({bound, index});
+    if (!beaten(bound)) queue.push({bound, index});
   };
   push(0);
   while (!queue.empty()) {
     const Entry e = queue.top();
     queue.pop();
-    if (e.bound <= out.hi) break;
+    if (beaten(e.bound)) break;
     const BvhNode& node = tree.nodes[e.node];
     if (node.count == 0) {
       push(node.first);
@@ -71,16 +76,20 @@ DepthBounds deepest_bounds(const SurfaceSamples& samples, const Pose& to_b, cons
       if (!components.empty() && !components[samples.component[i]]) continue;
       const Vec3 p = to_b * Vec3(samples.points.row(i).transpose());
       if (!b_bounds.contains(p)) continue;
-      Interval v = sd(p);
-      if (!v.tight && v.lower < 0.0 && !std::isfinite(stop)) {
-        const double exact = refine(p, v);
-        v = {exact, exact, exact, true};
-      }
+      const Interval v = sd(p);
+      if (v.lower >= 0.0) continue;
       out.est = std::max(out.est, -v.value);
       out.lo = std::max(out.lo, -v.upper);
       out.hi = std::max(out.hi, -v.lower);
+      if (exact) candidates.emplace_back(-v.lower, p);
       if (out.lo > stop) return out;
     }
+  }
+  if (exact) {
+    double deepest = 0.0;
+    for (const auto& [bound, p] : candidates)
+      if (bound >= out.lo && bound > deepest) deepest = std::max(deepest, -refine(p, sd(p)));
+    out.est = out.lo = out.hi = deepest;
   }
   return out;
 }
@@ -144,6 +153,16 @@ void GraspChecker::Impl::build_fields() {
 namespace {
 
 constexpr double kMargin = 1e-7;  // decisions at 0 are left to the exact path within this (m)
+constexpr int kSplits = 64;       // triangle splits before an undecided surface test goes exact
+
+// Whether p is strictly inside (signed distance < 0, as the exact query says), from the bounds
+// when they decide, else from the exact query.
+template <class Exact>
+bool strictly_inside(const Interval& v, double on_surface, Exact&& exact) {
+  if (v.lower > 0.0) return false;
+  if (v.upper < -on_surface) return true;
+  return exact() < 0.0;
+}
 
 std::vector<vd::Tri> moved(const std::vector<vd::Tri>& tris, const Pose& pose) {
   std::vector<vd::Tri> out(tris.size());
@@ -178,8 +197,7 @@ vd::PairCheck GraspChecker::Impl::field_pair(int l, const Pose& pose, int s, dou
   // Triangle intersection. Clear when the link's surface lies certainly outside the target (then
   // the surfaces cannot cross); certain when a connected link has points certainly on both sides.
   const std::vector<vd::Tri> tris = moved(L.tris, pose);
-  const double min_radius = 0.25 * F.cell();
-  const int reaches_in = vd::surface_below(tris, target_sd, -kMargin, kMargin, min_radius);
+  const int reaches_in = vd::surface_below(tris, target_sd, -kMargin, kMargin, F.cell(), kSplits);
   int crossing = -1;
   if (reaches_in == 0) {
     crossing = 0;
@@ -208,7 +226,9 @@ vd::PairCheck GraspChecker::Impl::field_pair(int l, const Pose& pose, int s, dou
       for (std::size_t c = 0; c < comp_in.size(); ++c) {
         if (!lb.contains(T.component_rep[c])) continue;
         const Vec3 q = inv * T.component_rep[c];
-        if (L.bounds.contains(q) && L.query->signed_distance(q) < 0.0) comp_in[c] = any = true;
+        if (L.bounds.contains(q) &&
+            strictly_inside(L.distance.at(q), L.query->surface_tolerance(), [&] { return L.query->signed_distance(q); }))
+          comp_in[c] = any = true;
       }
     }
     if (any)
@@ -226,7 +246,9 @@ vd::PairCheck GraspChecker::Impl::field_pair(int l, const Pose& pose, int s, dou
       comp_in.assign(L.samples.component_rep.size(), 0);
       for (std::size_t c = 0; c < comp_in.size(); ++c) {
         const Vec3 p = pose * L.samples.component_rep[c];
-        if (S.bounds.contains(p) && S.query->signed_distance(p) < 0.0) comp_in[c] = any = true;
+        if (S.bounds.contains(p) &&
+            strictly_inside(target_sd(p), S.query->surface_tolerance(), [&] { return S.query->signed_distance(p); }))
+          comp_in[c] = any = true;
       }
     }
     if (any) {
@@ -259,7 +281,7 @@ bool GraspChecker::Impl::field_touches_occluded(int l, const Pose& pose) const {
   const DistanceField& F = *occluded_field;
   const int touch = vd::surface_below(
       moved(L.tris, pose), [&](const Vec3& p) { return field_interval(F, p); }, options.contact_gap,
-      options.contact_gap, 0.25 * F.cell());
+      options.contact_gap, F.cell(), kSplits);
   return touch < 0 ? touches_occluded(l, pose) : touch == 1;
 }
 
