@@ -1,6 +1,9 @@
 // Penetration pruning throughput: GraspChecker::check_many (all cores) against serial check()
 // calls on the same candidates, for the Barrett hand on the bundled targets (box, mug, flask).
-// Also reports the checker's build time, the share of candidates pruned, and the closing time.
+// Also reports the checker's build time, the share of candidates pruned, and the closing time,
+// and compares the distance-field check with the exact one (use_distance_field = false) on the
+// same poses: these candidates and as many near-contact poses (a random link point put 3 mm inside
+// .. 2 mm outside a random target surface point), time per check, ratio and differing decisions.
 //
 // Candidates: the palm faces the target's centre from a random direction, its top 0..120 mm in
 // front of the target's extent along that direction, with a random roll and random DOFs within
@@ -41,6 +44,9 @@ std::string model_dir() {
 
 struct Scene {
   std::unique_ptr<GraspChecker> checker;
+  std::unique_ptr<GraspChecker> exact;  // use_distance_field = false
+  std::vector<Pose> near_wrists;
+  std::vector<Eigen::VectorXd> near_dofs;
   std::vector<Pose> wrists;
   std::vector<Eigen::VectorXd> dofs;
   double build_seconds = 0.0;
@@ -79,7 +85,75 @@ Scene& scene(const std::string& name) {
     s.wrists.push_back(w);
     s.dofs.push_back(q);
   }
+  CheckOptions exact;
+  exact.use_distance_field = false;
+  s.exact = std::make_unique<GraspChecker>(hand, target, Mask(), std::vector<Obstacle>{}, exact);
+  // Near contact: a random point of a random link 3 mm inside .. 2 mm outside a random target point.
+  auto on_surface = [&](const Mesh& m, Eigen::Vector3d* normal) {
+    const Eigen::Index f = std::min<Eigen::Index>(static_cast<Eigen::Index>(u(rng) * m.faces.rows()), m.faces.rows() - 1);
+    double a = u(rng), b = u(rng);
+    if (a + b > 1.0) a = 1.0 - a, b = 1.0 - b;
+    const Eigen::Vector3d p0 = m.vertices.row(m.faces(f, 0)).transpose(), p1 = m.vertices.row(m.faces(f, 1)).transpose(),
+                          p2 = m.vertices.row(m.faces(f, 2)).transpose();
+    if (normal) *normal = (p1 - p0).cross(p2 - p0).normalized();
+    return Eigen::Vector3d(p0 + a * (p1 - p0) + b * (p2 - p0));
+  };
+  for (int k = 0; k < kCandidates; ++k) {
+    Eigen::VectorXd q(lo.size());
+    for (Eigen::Index i = 0; i < q.size(); ++i) q[i] = lo[i] + (hi[i] - lo[i]) * u(rng);
+    const std::size_t l = std::min<std::size_t>(static_cast<std::size_t>(u(rng) * hand.links().size()), hand.links().size() - 1);
+    Pose w = Pose::Identity();
+    w.linear() = Eigen::Quaterniond(g(rng), g(rng), g(rng), g(rng)).normalized().toRotationMatrix();
+    const Eigen::Vector3d y = hand.link_poses(q)[l] * on_surface(hand.links()[l].mesh, nullptr);
+    Eigen::Vector3d n;
+    const Eigen::Vector3d x = on_surface(target, &n);
+    w.translation() = x + n * (-0.003 + 0.005 * u(rng)) - w.linear() * y;
+    s.near_wrists.push_back(w);
+    s.near_dofs.push_back(q);
+  }
   return s;
+}
+
+// Seconds per serial check over the poses (best of 3 passes) and the results.
+double time_checks(const GraspChecker& c, const std::vector<Pose>& w, const std::vector<Eigen::VectorXd>& q,
+                   bool exact_depth, std::vector<CheckResult>& out) {
+  double best = 1e30;
+  for (int pass = 0; pass < 3; ++pass) {
+    out.clear();
+    const auto t0 = std::chrono::steady_clock::now();
+    for (std::size_t k = 0; k < w.size(); ++k) out.push_back(c.check(w[k], q[k], exact_depth));
+    best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  return best / static_cast<double>(w.size());
+}
+
+int differing(const std::vector<CheckResult>& a, const std::vector<CheckResult>& b) {
+  int n = 0;
+  for (std::size_t k = 0; k < a.size(); ++k)
+    n += a[k].pruned != b[k].pruned || a[k].penetrating != b[k].penetrating ||
+         a[k].obstacle_collision != b[k].obstacle_collision || a[k].touches_occluded != b[k].touches_occluded ||
+         a[k].collision != b[k].collision;
+  return n;
+}
+
+void print_field_comparison() {
+  std::printf("\nDistance field against exact check, serial, %d poses per set\n", kCandidates);
+  std::printf("%-6s %-12s %-6s %12s %12s %8s %7s %9s %9s\n", "target", "poses", "depth", "exact us", "field us",
+              "ratio", "differ", "field MB", "build s");
+  for (const char* t : kTargets) {
+    Scene& s = scene(t);
+    for (int set = 0; set < 2; ++set)
+      for (bool exact_depth : {true, false}) {
+        const auto& w = set ? s.near_wrists : s.wrists;
+        const auto& q = set ? s.near_dofs : s.dofs;
+        std::vector<CheckResult> a, b;
+        const double te = time_checks(*s.exact, w, q, exact_depth, a);
+        const double tf = time_checks(*s.checker, w, q, exact_depth, b);
+        std::printf("%-6s %-12s %-6s %12.1f %12.1f %8.1f %7d %9.2f %9.3f\n", t, set ? "near-contact" : "candidates",
+                    exact_depth ? "exact" : "stop", 1e6 * te, 1e6 * tf, te / tf, differing(a, b),
+                    s.checker->distance_field_bytes() / 1e6, s.checker->distance_field_seconds());
+      }
+  }
 }
 
 void BM_CheckSerial(benchmark::State& state, const char* name) {
@@ -163,6 +237,7 @@ int main(int argc, char** argv) {
                 kCandidates / serial->second, kCandidates / many->second, serial->second / many->second,
                 close == rec.seconds.end() ? 0.0 : 1e3 * close->second);
   }
+  print_field_comparison();
   benchmark::Shutdown();
   return 0;
 }

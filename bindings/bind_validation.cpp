@@ -421,10 +421,13 @@ void bind_validation(pyb::module_& m) {
       "depth_tolerance (m): penetration tolerated before pruning -- set it to about 0.25 h (h: unit-facet "
       "edge). gap (m): contact gap. sample_spacing (m): depth samples (0: depth_tolerance). "
       "contact_spacing (m): active-surface samples for contacts; contact_cell (m): contacts thinned to one "
-      "per cube of this edge per link. threads: check_many's threads (0: all cores).")
+      "per cube of this edge per link. threads: check_many's threads (0: all cores). use_distance_field: "
+      "check through distance fields (the exact queries deciding wherever a field's error bound straddles a "
+      "threshold, so every flag equals the exact path's; depths within (sqrt(3)/2) field_cell); False: the "
+      "exact path. field_cell (m): the fields' cell edge.")
       .def(pyb::init([](const Hand& hand, const Mesh& target, const pyb::object& free, const pyb::object& obstacles,
                         double depth_tolerance, double gap, double sample_spacing, double contact_spacing,
-                        double contact_cell, int threads) {
+                        double contact_cell, int threads, bool use_distance_field, double field_cell) {
              const Mask mask = mask_from(free, "free").value_or(Mask());
              const std::vector<Obstacle> obs = obstacles_from(obstacles);
              CheckOptions o;
@@ -434,13 +437,16 @@ void bind_validation(pyb::module_& m) {
              o.contact_spacing = contact_spacing;
              o.contact_cell = contact_cell;
              o.threads = threads;
+             o.use_distance_field = use_distance_field;
+             o.field_cell = field_cell;
              pyb::gil_scoped_release release;
              return GraspChecker(hand, target, mask, obs, o);
            }),
            "hand"_a, "target"_a, "free"_a = pyb::none(), "obstacles"_a = pyb::list(),
            "depth_tolerance"_a = CheckOptions().depth_tolerance, "gap"_a = CheckOptions().contact_gap,
            "sample_spacing"_a = CheckOptions().sample_spacing, "contact_spacing"_a = CheckOptions().contact_spacing,
-           "contact_cell"_a = CheckOptions().contact_cell, "threads"_a = CheckOptions().threads)
+           "contact_cell"_a = CheckOptions().contact_cell, "threads"_a = CheckOptions().threads,
+           "use_distance_field"_a = CheckOptions().use_distance_field, "field_cell"_a = CheckOptions().field_cell)
       .def_property_readonly("hand", &GraspChecker::hand)
       .def_property_readonly("target", &GraspChecker::target)
       .def_property_readonly("free", [](const GraspChecker& c) { return mask_to_numpy(c.free()); },
@@ -456,6 +462,11 @@ void bind_validation(pyb::module_& m) {
       .def_property_readonly("link_sample_counts", &GraspChecker::link_sample_counts,
                              "Depth samples per link (Hand.links order).")
       .def_property_readonly("target_sample_count", &GraspChecker::target_sample_count)
+      .def_property_readonly("use_distance_field", [](const GraspChecker& c) { return c.options().use_distance_field; })
+      .def_property_readonly("distance_field_bytes", &GraspChecker::distance_field_bytes,
+                             "Bytes held by the distance fields (0 without them).")
+      .def_property_readonly("distance_field_seconds", &GraspChecker::distance_field_seconds,
+                             "Seconds spent building the distance fields.")
       .def(
           "check",
           [](const GraspChecker& c, const pyb::object& wrist_pose, const pyb::object& dofs, bool exact_depth) {

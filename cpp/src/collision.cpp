@@ -9,6 +9,7 @@
 #include <fcl/narrowphase/distance.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -209,6 +210,7 @@ GraspChecker::Impl::Impl(const Hand& hand_in, const Mesh& target_in, const Mask&
   check_option("sample_spacing", options.sample_spacing, false);
   check_option("contact_spacing", options.contact_spacing, true);
   check_option("contact_cell", options.contact_cell, true);
+  check_option("field_cell", options.field_cell, true);
   if (options.threads < 0) throw std::invalid_argument("threads: expected >= 0, got " + std::to_string(options.threads));
   sample_spacing = options.sample_spacing > 0.0 ? options.sample_spacing : options.depth_tolerance;
   if (!(sample_spacing > 0.0))
@@ -285,6 +287,11 @@ GraspChecker::Impl::Impl(const Hand& hand_in, const Mesh& target_in, const Mask&
     const std::vector<Pose> p1 = hand.link_poses(q, true);
     for (std::size_t l = 0; l < p0.size(); ++l)
       if ((p1[l].matrix() - p0[l].matrix()).cwiseAbs().maxCoeff() > 1e-12) dof_links[k].push_back(static_cast<int>(l));
+  }
+  if (options.use_distance_field) {
+    const auto t0 = std::chrono::steady_clock::now();
+    build_fields();
+    field_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
 }
 
@@ -396,7 +403,7 @@ CheckResult GraspChecker::Impl::check_poses(const std::vector<Pose>& poses, bool
     lc.link = links[l].name;
     for (std::size_t s = 0; s < scene.size(); ++s) {
       const double stop = exact_depth ? inf : (scene[s].obstacle ? 0.0 : options.depth_tolerance);
-      const vd::PairCheck pc = check_pair(static_cast<int>(l), poses[l], static_cast<int>(s), stop);
+      const vd::PairCheck pc = pair(static_cast<int>(l), poses[l], static_cast<int>(s), stop);
       if (!pc.intersecting && !pc.inside) continue;
       CollisionPair pair;
       pair.link = lc.link;
@@ -417,7 +424,8 @@ CheckResult GraspChecker::Impl::check_poses(const std::vector<Pose>& poses, bool
         if (pc.depth > options.depth_tolerance) deep.push_back(lc.link);
       }
     }
-    lc.touches_occluded = touches_occluded(static_cast<int>(l), poses[l]);
+    lc.touches_occluded = options.use_distance_field ? field_touches_occluded(static_cast<int>(l), poses[l])
+                                                     : touches_occluded(static_cast<int>(l), poses[l]);
     if (lc.touches_occluded) occluding.push_back(lc.link);
     r.collision = r.collision || lc.colliding;
     r.touches_occluded = r.touches_occluded || lc.touches_occluded;
@@ -475,6 +483,14 @@ std::vector<int> GraspChecker::link_sample_counts() const {
   for (const auto& L : impl_->links) out.push_back(static_cast<int>(L.samples.points.rows()));
   return out;
 }
+std::size_t GraspChecker::distance_field_bytes() const {
+  std::size_t n = 0;
+  for (const auto& L : impl_->links)
+    n += L.distance.field ? L.distance.field->nbytes() : L.distance.planes.size() * sizeof(Eigen::Vector4d);
+  for (const auto& S : impl_->scene) n += S.field ? S.field->nbytes() : 0;
+  return n + (impl_->occluded_field ? impl_->occluded_field->nbytes() : 0);
+}
+double GraspChecker::distance_field_seconds() const { return impl_->field_seconds; }
 int GraspChecker::target_sample_count() const { return static_cast<int>(impl_->scene[0].samples.points.rows()); }
 
 }  // namespace pairgrasp

@@ -2,12 +2,16 @@
 // Internal state of GraspChecker, shared by collision.cpp (checks) and grasp*.cpp (closing,
 // contacts). FCL stays inside cpp/src.
 #include <pairgrasp/collision.hpp>
+#include <pairgrasp/distance_field.hpp>
 
 #include "surface_query_internal.hpp"
 
 #include <fcl/geometry/bvh/BVH_model.h>
 #include <fcl/math/bv/OBBRSS.h>
 
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <limits>
 #include <memory>
 #include <string>
@@ -49,6 +53,71 @@ double deepest_inside(const SurfaceSamples& samples, const Pose& to_b, const Sur
                       const Eigen::AlignedBox3d& b_bounds, const std::vector<char>& components,
                       double known = 0.0, double stop = std::numeric_limits<double>::infinity());
 
+/// Bounds of an exact signed distance (m): lower <= exact <= upper.
+struct Interval {
+  double value = 0.0;  ///< estimate
+  double lower = 0.0;
+  double upper = 0.0;
+  bool tight = true;   ///< within the field's documented error of the exact value
+};
+
+/// Bounds of a link's signed distance in its own frame: exact inside a convex link (the largest
+/// face-plane offset; outside it a lower bound), else the link's distance field.
+struct LinkDistance {
+  std::vector<Eigen::Vector4d> planes;   ///< convex link: unit outward normal, offset (n·p - d)
+  std::unique_ptr<DistanceField> field;  ///< non-convex closed link
+  double slack = 0.0;                    ///< rounding of the plane form (m)
+  Interval at(const Vec3& q) const;
+};
+
+/// A triangle (corners in some frame).
+using Tri = std::array<Vec3, 3>;
+
+/// Over the triangles of a surface, a 1-Lipschitz function f: +1 when some point certainly has
+/// f <= yes_at, 0 when every point certainly has f > clear_above (>= yes_at), -1 undecided.
+/// `bounds(p)` gives an Interval of f(p). A triangle's values lie within its circumradius R
+/// (about its centroid m) of f(m), so it is clear when lower(m) - R > clear_above and decides
+/// "yes" when upper(m) <= yes_at; otherwise it is split in four, down to `min_radius` (m) or
+/// `budget` splits.
+template <class Bounds>
+int surface_below(const std::vector<Tri>& tris, Bounds&& bounds, double yes_at, double clear_above,
+                  double min_radius, int budget = 2048) {
+  std::vector<Tri> stack(tris.rbegin(), tris.rend());
+  bool undecided = false;
+  while (!stack.empty()) {
+    const Tri t = stack.back();
+    stack.pop_back();
+    const Vec3 m = (t[0] + t[1] + t[2]) / 3.0;
+    const double R = std::sqrt(std::max({(t[0] - m).squaredNorm(), (t[1] - m).squaredNorm(), (t[2] - m).squaredNorm()}));
+    const Interval f = bounds(m);
+    if (f.upper <= yes_at) return 1;
+    if (f.lower - R > clear_above) continue;
+    if (R <= min_radius || --budget <= 0) {
+      undecided = true;
+      continue;
+    }
+    const Vec3 ab = 0.5 * (t[0] + t[1]), bc = 0.5 * (t[1] + t[2]), ca = 0.5 * (t[2] + t[0]);
+    stack.push_back({t[0], ab, ca});
+    stack.push_back({ab, t[1], bc});
+    stack.push_back({ca, bc, t[2]});
+    stack.push_back({ab, bc, ca});
+  }
+  return undecided ? -1 : 0;
+}
+
+/// Bounds of the largest depth of samples inside a solid B (see deepest_inside): `lo` <= exact
+/// <= `hi`, and `est` within the largest error of the values used (tight ones: the field's
+/// max_error()) of the exact depth. `sd(p)` gives an Interval of B's signed distance at p (B's
+/// frame); `refine(p)`, called for a sample whose bounds are not tight and that may be inside,
+/// gives its exact signed distance. Only samples of flagged `components` count (all when empty).
+/// Stops once lo > stop.
+struct DepthBounds {
+  double est = 0.0, lo = 0.0, hi = 0.0;
+};
+template <class Sd, class Refine>
+DepthBounds deepest_bounds(const SurfaceSamples& samples, const Pose& to_b, const Eigen::AlignedBox3d& b_bounds,
+                           const std::vector<char>& components, Sd&& sd, Refine&& refine, double stop);
+
 /// A hand link ready for checks.
 struct LinkModel {
   std::string name;
@@ -59,6 +128,8 @@ struct LinkModel {
   std::unique_ptr<SurfaceQuery> query;    ///< of the link mesh (for target samples inside it)
   SurfaceSamples samples;                 ///< depth samples, link frame
   Points contact_samples;                 ///< active-surface samples at contact_spacing, link frame
+  LinkDistance distance;                  ///< signed distance bounds inside the link (closed links)
+  std::vector<Tri> tris;                  ///< faces, link frame
 };
 
 /// The target or an obstacle.
@@ -70,6 +141,7 @@ struct SceneModel {
   Eigen::AlignedBox3d bounds;
   std::unique_ptr<SurfaceQuery> query;
   SurfaceSamples samples;  ///< target only (reverse depth); empty for obstacles
+  std::unique_ptr<DistanceField> field;  ///< target's distance field (null: exact queries)
 };
 
 /// What a link at a pose does against one scene model.
@@ -94,6 +166,8 @@ struct GraspChecker::Impl {
   std::vector<validation_detail::SceneModel> scene;  ///< [0] target, then obstacles
   std::shared_ptr<validation_detail::FclModel> occluded;  ///< target's occluded faces (null: none)
   Eigen::AlignedBox3d occluded_bounds;
+  std::unique_ptr<SurfaceQuery> occluded_query;   ///< the occluded faces alone (unsigned)
+  std::unique_ptr<DistanceField> occluded_field;  ///< unsigned distance to the occluded faces
 
   /// Links (indices into links) whose pose changes with each DOF.
   std::vector<std::vector<int>> dof_links;
@@ -107,6 +181,20 @@ struct GraspChecker::Impl {
                                           double stop = std::numeric_limits<double>::infinity()) const;
   /// Whether link l at `pose` comes within the contact gap of an occluded target face.
   bool touches_occluded(int l, const Pose& pose) const;
+  /// check_pair() through the distance fields: the same flags, depth within the field's bound;
+  /// the exact check_pair() decides wherever the bounds do not.
+  validation_detail::PairCheck field_pair(int l, const Pose& pose, int s,
+                                          double stop = std::numeric_limits<double>::infinity()) const;
+  /// field_pair() or check_pair(), as options.use_distance_field says.
+  validation_detail::PairCheck pair(int l, const Pose& pose, int s,
+                                    double stop = std::numeric_limits<double>::infinity()) const {
+    return options.use_distance_field ? field_pair(l, pose, s, stop) : check_pair(l, pose, s, stop);
+  }
+  /// touches_occluded() through the occluded faces' distance field (exact where undecided).
+  bool field_touches_occluded(int l, const Pose& pose) const;
+  /// Builds the distance fields (target, occluded faces, non-convex links).
+  void build_fields();
+  double field_seconds = 0.0;
   /// Full check at link poses already in the target frame (depths exact unless `exact_depth` is
   /// false: see GraspChecker::check).
   CheckResult check_poses(const std::vector<Pose>& poses, bool exact_depth = true) const;

@@ -278,3 +278,22 @@ def test_checker_errors(jaw, jaw_box):
         pg.GraspChecker(jaw, jaw_box, depth_tolerance=-1)
     with pytest.raises(ValueError, match=r"directions\[0\]: expected -1, 0 or \+1"):
         checker.close(np.eye(4), [0.08], directions=[2])
+
+
+def test_distance_field_checks_equal_the_exact_path(jaw, jaw_box):
+    field = pg.GraspChecker(jaw, jaw_box)
+    exact = pg.GraspChecker(jaw, jaw_box, use_distance_field=False)
+    assert field.use_distance_field and not exact.use_distance_field
+    assert field.distance_field_bytes > 0 and field.distance_field_seconds > 0
+    assert exact.distance_field_bytes == 0
+    rng = np.random.default_rng(3)
+    poses = np.repeat(np.eye(4)[None], 64, axis=0)
+    poses[:, :3, 3] = rng.uniform(-0.01, 0.01, (64, 3))
+    dofs = rng.uniform(0.0, 0.08, (64, 1))
+    bound = math.sqrt(3) / 2 * 0.001 + 1e-7
+    for a, b in zip(exact.check_many(poses, dofs), field.check_many(poses, dofs)):
+        assert (a.pruned, a.penetrating, a.collision, a.touches_occluded) == \
+            (b.pruned, b.penetrating, b.collision, b.touches_occluded)
+        assert abs(a.target_depth - b.target_depth) <= bound
+    with pytest.raises(ValueError, match="field_cell"):
+        pg.GraspChecker(jaw, jaw_box, field_cell=0.0)

@@ -11,6 +11,7 @@
 #include <pairgrasp/surface_query.hpp>
 #include <pairgrasp/types.hpp>
 
+#include <cstddef>
 #include <memory>
 #include <string>
 #include <vector>
@@ -44,6 +45,16 @@ struct CheckOptions {
   double contact_cell = 0.004;
   /// Threads of check_many(): 0 = all cores.
   int threads = 0;
+  /// Check through distance fields (a narrow-band signed-distance grid of the target, one of the
+  /// occluded faces, face planes of convex links, small grids of the others), with the exact
+  /// queries deciding wherever a field value lies within its error bound of a threshold: every
+  /// flag (pruned, penetrating, obstacle_collision, touches_occluded, collision, colliding,
+  /// intersecting, inside) equals the exact path's, and every depth lies within field_cell·√3/2
+  /// of its exact value (exact_depth) or is a lower bound of it beyond the tolerance (as with
+  /// exact_depth false). False: the exact path (FCL and signed-distance queries at every sample).
+  bool use_distance_field = true;
+  /// Cell edge (m) of the distance fields; their interpolation error is at most (√3/2)·cell.
+  double field_cell = 0.001;
 };
 
 /// What one link collides with.
@@ -132,6 +143,10 @@ class GraspChecker {
   /// Number of depth samples of each link (Hand::links() order) and of the target.
   std::vector<int> link_sample_counts() const;
   int target_sample_count() const;
+  /// Bytes held by the distance fields (0 without use_distance_field) and the seconds spent
+  /// building them.
+  std::size_t distance_field_bytes() const;
+  double distance_field_seconds() const;
 
   struct Impl;
   /// Internal state (used by the closing and contact functions of grasp.hpp).

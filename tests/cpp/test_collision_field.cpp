@@ -1,0 +1,186 @@
+// GraspChecker through distance fields against the exact path (use_distance_field = false): on
+// random poses of both bundled hands on every bundled target, with and without the paint files
+// and with a table under the target, every decision is the same and depths agree within the
+// field's bound. Most poses put a random point of a random link within a few millimetres of a
+// random target surface point (links straddling the surface), the rest anywhere near the target.
+#include <pairgrasp/collision.hpp>
+#include <pairgrasp/grasp.hpp>
+#include <pairgrasp/paint.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <string>
+
+#include "validation_test_meshes.hpp"
+
+using namespace pairgrasp;
+using Eigen::Vector3d;
+
+namespace {
+
+std::string model(const std::string& rel) { return std::string(PAIRGRASP_MODEL_DIR) + "/" + rel; }
+
+Vector3d on_surface(const Mesh& m, std::mt19937_64& rng, Vector3d* normal = nullptr) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::uniform_int_distribution<Eigen::Index> face(0, m.faces.rows() - 1);
+  const Eigen::Index f = face(rng);
+  double a = u(rng), b = u(rng);
+  if (a + b > 1.0) a = 1.0 - a, b = 1.0 - b;
+  const Vector3d p0 = m.vertices.row(m.faces(f, 0)).transpose(), p1 = m.vertices.row(m.faces(f, 1)).transpose(),
+                 p2 = m.vertices.row(m.faces(f, 2)).transpose();
+  if (normal) *normal = (p1 - p0).cross(p2 - p0).normalized();
+  return p0 + a * (p1 - p0) + b * (p2 - p0);
+}
+
+struct Poses {
+  std::vector<Pose> wrists;
+  std::vector<Eigen::VectorXd> dofs;
+};
+
+// `backoff`: most near-contact poses are then moved out along the target's normal (bisection on
+// its depth, 8 steps) until the target depth is about a random value in [0, 2.5 mm], so that many
+// straddle the tolerance or barely touch.
+Poses random_poses(const Hand& hand, const Mesh& target, int n, std::uint64_t seed, const GraspChecker& backoff) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> g;
+  const Eigen::VectorXd lo = hand.dof_lower(), hi = hand.dof_upper();
+  std::uniform_int_distribution<std::size_t> pick(0, hand.links().size() - 1);
+  Poses out;
+  for (int k = 0; k < n; ++k) {
+    Eigen::VectorXd q(lo.size());
+    for (Eigen::Index i = 0; i < q.size(); ++i) q[i] = lo[i] + (hi[i] - lo[i]) * u(rng);
+    Pose w = Pose::Identity();
+    w.linear() = Eigen::Quaterniond(g(rng), g(rng), g(rng), g(rng)).normalized().toRotationMatrix();
+    if (k % 8 == 7) {  // anywhere within 5 cm of the target's box
+      const Eigen::AlignedBox3d& b = target.bounds;
+      w.translation() = b.min() - Vector3d::Constant(0.05) +
+                        (b.sizes() + Vector3d::Constant(0.1)).cwiseProduct(Vector3d(u(rng), u(rng), u(rng)));
+    } else {  // a link point 3 mm inside .. 2 mm outside a target surface point
+      const std::size_t l = pick(rng);
+      const Pose link = hand.link_poses(q)[l];
+      const Vector3d y = link * on_surface(hand.links()[l].mesh, rng);
+      Vector3d n;
+      const Vector3d x = on_surface(target, rng, &n);
+      w.translation() = x + n * (-0.003 + 0.005 * u(rng)) - w.linear() * y;
+      if (k % 4 != 0) {
+        const double want = 0.0025 * u(rng);
+        double a = 0.0, b = 0.06;
+        for (int it = 0; it < 8; ++it) {
+          Pose m = w;
+          m.translation() += n * (0.5 * (a + b));
+          (backoff.check(m, q, false).target_depth > want ? a : b) = 0.5 * (a + b);
+        }
+        w.translation() += n * b;
+      }
+    }
+    out.wrists.push_back(w);
+    out.dofs.push_back(q);
+  }
+  return out;
+}
+
+struct Tally {
+  int poses = 0, differing = 0, pruned = 0, penetrating = 0, occluded = 0, obstacle = 0, colliding = 0;
+};
+
+void compare(const GraspChecker& exact, const GraspChecker& field, const Poses& p, bool exact_depth, Tally& t) {
+  const auto a = exact.check_many(p.wrists, p.dofs, 0, exact_depth);
+  const auto b = field.check_many(p.wrists, p.dofs, 0, exact_depth);
+  const double bound = 0.5 * std::sqrt(3.0) * field.options().field_cell + 1e-7;
+  const double tol = exact.options().depth_tolerance;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    SCOPED_TRACE("pose " + std::to_string(k));
+    const CheckResult &x = a[k], &y = b[k];
+    ++t.poses;
+    const bool same = x.pruned == y.pruned && x.penetrating == y.penetrating &&
+                      x.obstacle_collision == y.obstacle_collision && x.touches_occluded == y.touches_occluded &&
+                      x.collision == y.collision;
+    t.differing += !same;
+    t.pruned += x.pruned;
+    t.penetrating += x.penetrating;
+    t.occluded += x.touches_occluded;
+    t.obstacle += x.obstacle_collision;
+    t.colliding += x.collision;
+    EXPECT_TRUE(same) << x.reason << " | " << y.reason;
+    ASSERT_EQ(x.links.size(), y.links.size());
+    for (std::size_t l = 0; l < x.links.size(); ++l) {
+      EXPECT_EQ(x.links[l].colliding, y.links[l].colliding) << x.links[l].link;
+      EXPECT_EQ(x.links[l].touches_occluded, y.links[l].touches_occluded) << x.links[l].link;
+      EXPECT_EQ(x.links[l].with, y.links[l].with) << x.links[l].link;
+    }
+    ASSERT_EQ(x.pairs.size(), y.pairs.size());
+    for (std::size_t i = 0; i < x.pairs.size(); ++i) {
+      EXPECT_EQ(x.pairs[i].link, y.pairs[i].link);
+      EXPECT_EQ(x.pairs[i].other, y.pairs[i].other);
+      EXPECT_EQ(x.pairs[i].intersecting, y.pairs[i].intersecting) << x.pairs[i].link;
+      EXPECT_EQ(x.pairs[i].inside, y.pairs[i].inside) << x.pairs[i].link;
+      const double dx = x.pairs[i].depth, dy = y.pairs[i].depth;
+      if (exact_depth || (dx <= tol && dy <= tol) || x.pairs[i].obstacle)
+        EXPECT_NEAR(dx, dy, bound) << x.pairs[i].link << " with " << x.pairs[i].other;
+      else
+        EXPECT_TRUE(dx > tol && dy > tol) << dx << " " << dy;
+    }
+    if (exact_depth) EXPECT_NEAR(x.target_depth, y.target_depth, bound);
+  }
+}
+
+CheckOptions with_field(bool on) {
+  CheckOptions o;
+  o.use_distance_field = on;
+  return o;
+}
+
+}  // namespace
+
+TEST(CollisionField, DecisionsEqualTheExactPathOnRandomPoses) {
+  Tally total;
+  std::uint64_t seed = 1;
+  for (const char* spec : {"barrett/barrett.json", "parallel_jaw/parallel_jaw.json"}) {
+    const Hand hand = Hand::load(model(spec));
+    for (const char* name : {"box", "mug", "flask"}) {
+      const Mesh target = load_mesh(model(std::string("targets/") + name + ".stl"));
+      const Mask paint = load_paint(model(std::string("targets/") + name + ".paint.json"), target);
+      // A table slab under the target, touching its base.
+      const Vector3d lo = target.bounds.min(), hi = target.bounds.max();
+      const std::vector<Obstacle> table = {
+          {"table", testing_meshes::box_mesh(Vector3d(lo.x() - 0.1, lo.y() - 0.1, lo.z() - 0.02),
+                                             Vector3d(hi.x() + 0.1, hi.y() + 0.1, lo.z()), 2, "table")}};
+      struct Variant {
+        const char* what;
+        Mask free;
+        std::vector<Obstacle> obstacles;
+      };
+      for (const Variant& v : {Variant{"plain", Mask(), {}}, Variant{"paint", paint, {}},
+                               Variant{"paint + table", paint, table}}) {
+        SCOPED_TRACE(std::string(spec) + " on " + name + ", " + v.what);
+        const GraspChecker exact(hand, target, v.free, v.obstacles, with_field(false));
+        const GraspChecker field(hand, target, v.free, v.obstacles, with_field(true));
+        const Poses p = random_poses(hand, target, 200, seed++, field);
+        Tally t;
+        compare(exact, field, p, (seed % 2) == 0, t);
+        std::printf("%-30s %-6s %-14s %4d poses: %3d pruned, %3d penetrating, %3d occluded, %3d obstacle, %3d colliding; %d differ\n",
+                    spec, name, v.what, t.poses, t.pruned, t.penetrating, t.occluded, t.obstacle, t.colliding, t.differing);
+        total.poses += t.poses;
+        total.differing += t.differing;
+      }
+    }
+  }
+  std::printf("%d poses, %d with a differing decision\n", total.poses, total.differing);
+  EXPECT_EQ(total.differing, 0);
+}
+
+TEST(CollisionField, ConvexAndNonConvexLinksAndTheFieldSize) {
+  const Mesh target = load_mesh(model("targets/mug.stl"));
+  const GraspChecker field(Hand::load(model("parallel_jaw/parallel_jaw.json")), target);
+  EXPECT_GT(field.distance_field_bytes(), 100000u);
+  EXPECT_LT(field.distance_field_bytes(), 64u << 20);
+  EXPECT_GT(field.distance_field_seconds(), 0.0);
+  const GraspChecker exact(Hand::load(model("parallel_jaw/parallel_jaw.json")), target, Mask(), {}, with_field(false));
+  EXPECT_EQ(exact.distance_field_bytes(), 0u);
+  EXPECT_THROW(GraspChecker(Hand::load(model("parallel_jaw/parallel_jaw.json")), target, Mask(), {},
+                            [] { CheckOptions o; o.field_cell = 0.0; return o; }()),
+               std::invalid_argument);
+}
