@@ -104,15 +104,12 @@ void bind_quality(pyb::module_& m) {
 
   m.def(
       "_epsilon_upper_bound",
-      [](const pyb::object& points, const pyb::object& normals, const pyb::object& center, double radius, double mu,
-         int edges, bool soft, std::optional<double> torsion, int soft_rings) {
-        const Grasp g = grasp_from(points, normals, center);
-        const ContactModel model = model_from(mu, edges, soft, torsion, soft_rings);
+      [](const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>>& wrenches) {
+        const Wrenches w = wrenches;
         pyb::gil_scoped_release release;
-        return epsilon_upper_bound(wrench_matrix(g.points, g.normals, g.center, radius, model));
+        return epsilon_upper_bound(w);
       },
-      "points"_a, "normals"_a, "center"_a, "radius"_a, "mu"_a, "edges"_a, "soft"_a, "torsion"_a, "soft_rings"_a,
-      "Hull-free upper bound of epsilon (see pairgrasp.epsilon_upper_bound).");
+      "wrenches"_a, "Hull-free upper bound of the epsilon of a (W, 6) wrench set (see pairgrasp.epsilon_upper_bound).");
 }
 
 }  // namespace pairgrasp::py

@@ -265,7 +265,7 @@ def epsilon_upper_bound(points, normals, center, radius, mu=0.5, edges=8, soft=F
     :func:`wrench_matrix`; 0 for no contacts.
     """
     args = _check_inputs(points, normals, center, radius, mu, edges, soft, torsion, soft_rings)
-    return float(_core._epsilon_upper_bound(**_model(args)))
+    return float(_core._epsilon_upper_bound(_core.contact_wrenches(**_model(args))))
 
 
 # ---------------------------------------------------------------------------------------- quality
