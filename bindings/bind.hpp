@@ -5,6 +5,10 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <pairgrasp/types.hpp>
+
+#include <algorithm>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -37,6 +41,38 @@ inline std::string shape_of(const pyb::array& a) {
   for (pyb::ssize_t k = 0; k < a.ndim(); ++k) s += (k ? ", " : "") + std::to_string(a.shape(k));
   return s + (a.ndim() == 1 ? ",)" : ")");
 }
+/// A C-contiguous float64 array.
+using DoubleArray = pyb::array_t<double, pyb::array::c_style | pyb::array::forcecast>;
+
+/// Anything NumPy converts, as float64; std::invalid_argument("<name>: ...") otherwise.
+inline DoubleArray as_double_array(const pyb::handle& obj, const std::string& name) {
+  pyb::object arr;
+  try {
+    arr = pyb::module_::import("numpy").attr("asarray")(obj, pyb::arg("dtype") = "float64");
+  } catch (const pyb::error_already_set&) {
+    throw std::invalid_argument(name + ": expected an array of numbers");
+  }
+  return DoubleArray::ensure(arr);
+}
+
+/// (N,3) points from anything NumPy converts.
+inline Points points_from(const pyb::handle& obj, const std::string& name) {
+  const DoubleArray a = as_double_array(obj, name);
+  if (a.ndim() != 2 || a.shape(1) != 3)
+    throw std::invalid_argument(name + ": expected an (N, 3) array, got shape " + shape_of(a));
+  Points p(a.shape(0), 3);
+  std::copy(a.data(), a.data() + a.size(), p.data());
+  return p;
+}
+
+/// A 1-D vector from anything NumPy converts.
+inline Eigen::VectorXd vector_from(const pyb::handle& obj, const std::string& name) {
+  const DoubleArray a = as_double_array(obj, name);
+  if (a.ndim() != 1) throw std::invalid_argument(name + ": expected a 1-D array, got shape " + shape_of(a));
+  Eigen::VectorXd v(a.shape(0));
+  std::copy(a.data(), a.data() + a.size(), v.data());
+  return v;
+}
 void bind_errors(pyb::module_& m);     // bind_errors.cpp: FileError -> pairgrasp.FileError(RuntimeError)
 void bind_mesh(pyb::module_& m);       // bind_mesh.cpp: Mesh, load_mesh, make_mesh
 void bind_hand(pyb::module_& m);       // bind_hand.cpp: Hand, load_hand, Constellation
@@ -44,4 +80,5 @@ void bind_paint(pyb::module_& m);      // bind_paint.cpp: paint files -> per-fac
 void bind_surface(pyb::module_& m);    // bind_surface.cpp: tessellate, UnitFacets, pair_feature, PairIndex
 void bind_alignment(pyb::module_& m);  // bind_alignment.cpp: solve_pair_pose, Aligner
 void bind_validation(pyb::module_& m); // bind_validation.cpp: SurfaceQuery, occluded_by, visible_from, GraspChecker
+void bind_quality(pyb::module_& m);    // bind_quality.cpp: contact wrenches, grasp quality (epsilon)
 }  // namespace pairgrasp::py

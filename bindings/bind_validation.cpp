@@ -6,7 +6,6 @@
 #include <pairgrasp/grasp.hpp>
 #include <pairgrasp/reachability.hpp>
 #include <pairgrasp/surface_query.hpp>
-#include <pairgrasp/wrenches.hpp>
 
 #include <pairgrasp/error.hpp>
 
@@ -24,36 +23,6 @@ namespace {
 using namespace pybind11::literals;
 
 
-
-using DoubleArray = pyb::array_t<double, pyb::array::c_style | pyb::array::forcecast>;
-
-DoubleArray as_double_array(const pyb::handle& obj, const std::string& name) {
-  pyb::object arr;
-  try {
-    arr = pyb::module_::import("numpy").attr("asarray")(obj, "dtype"_a = "float64");
-  } catch (const pyb::error_already_set&) {
-    throw std::invalid_argument(name + ": expected an array of numbers");
-  }
-  return DoubleArray::ensure(arr);
-}
-
-// (N,3) points from anything NumPy converts.
-Points points_from(const pyb::handle& obj, const std::string& name) {
-  const DoubleArray a = as_double_array(obj, name);
-  if (a.ndim() != 2 || a.shape(1) != 3)
-    throw std::invalid_argument(name + ": expected an (N, 3) array, got shape " + shape_of(a));
-  Points p(a.shape(0), 3);
-  std::copy(a.data(), a.data() + a.size(), p.data());
-  return p;
-}
-
-Eigen::VectorXd vector_from(const pyb::handle& obj, const std::string& name) {
-  const DoubleArray a = as_double_array(obj, name);
-  if (a.ndim() != 1) throw std::invalid_argument(name + ": expected a 1-D array, got shape " + shape_of(a));
-  Eigen::VectorXd v(a.shape(0));
-  std::copy(a.data(), a.data() + a.size(), v.data());
-  return v;
-}
 
 Pose pose_from_data(const double* d, const std::string& name) {
   Eigen::Matrix4d m;
@@ -547,25 +516,6 @@ void bind_validation(pyb::module_& m) {
       "hand"_a, "dofs"_a,
       "(D,) closing direction of each DOF at `dofs`: +1, -1, or 0 for DOFs that do not close the hand (the "
       "Barrett spread), from the motion of the active surfaces along their normals.");
-
-  m.def(
-      "contact_wrenches",
-      [](const pyb::object& points, const pyb::object& normals, const pyb::object& center, double radius, double mu,
-         int edges) {
-        const Points p = points_from(points, "points");
-        const Points n = points_from(normals, "normals");
-        const Eigen::VectorXd c = vector_from(center, "center");
-        detail::check_size("center: values", 3, c.size());
-        Wrenches w;
-        {
-          pyb::gil_scoped_release release;
-          w = wrench_matrix(p, n, Eigen::Vector3d(c), radius, mu, edges);
-        }
-        return Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>(w);
-      },
-      "points"_a, "normals"_a, "center"_a, "radius"_a, "mu"_a = 0.5, "edges"_a = 8,
-      "(N*edges, 6) friction-pyramid wrenches [f; (p - center) x f / radius] computed in C++ (the same "
-      "convention as pairgrasp.wrench_matrix for point contacts); normals are the target's outward normals.");
 }
 
 }  // namespace pairgrasp::py

@@ -4,7 +4,7 @@
 #include <pairgrasp/version.hpp>
 
 PYBIND11_MODULE(_core, m) {
-  m.doc() = "pairgrasp C++ core: meshes, hands, unit facets, pair index, alignment.";
+  m.doc() = "pairgrasp C++ core: meshes, hands, unit facets, pair index, alignment, grasp quality.";
   m.def("version", &pairgrasp::version, "The library version.");
   pairgrasp::py::bind_errors(m);
   pairgrasp::py::bind_mesh(m);
@@ -13,4 +13,5 @@ PYBIND11_MODULE(_core, m) {
   pairgrasp::py::bind_surface(m);
   pairgrasp::py::bind_alignment(m);
   pairgrasp::py::bind_validation(m);
+  pairgrasp::py::bind_quality(m);
 }

@@ -25,7 +25,9 @@ Conventions (lengths in metres, angles in radians):
   ``[n + mu cos(phi_j) t_k; ((p - c) x f +- torsion sin(phi_j) n) / r]``. With ``soft_rings = 0``
   the model is the pyramid plus the two torsion wrenches per contact.
 * Quality: the grasp wrench space is the convex hull of all contact wrenches (the L1 grasp, sum of
-  the normal forces <= 1, eq. 3 and 5), computed by qhull (``scipy.spatial.ConvexHull``). The grasp
+  the normal forces <= 1, eq. 3 and 5), computed in C++ by qhull's reentrant library (the qhull SciPy
+  wraps, with SciPy's ConvexHull options; each call has its own qhull state, the GIL is released,
+  so calls may run on several threads). The grasp
   is force-closure when the origin is strictly inside that hull (eq. 6), and epsilon is then the
   distance from the origin to the nearest hull facet (eq. 7); otherwise epsilon is 0.
 * Cost: a 6-D hull of a few hundred wrenches has ~10^5-10^6 facets (seconds). Two reductions keep
@@ -40,7 +42,8 @@ Conventions (lengths in metres, angles in radians):
   epsilon(S), S being a subset. When U = L epsilon is exact; otherwise the contact of the farthest
   wrench beyond each facet with d_f < U joins S and the hull is rebuilt. U <= 0 proves
   non-closure. The volume reported is then the hull volume of the final S, a lower bound
-  (``volume_exact`` False). Patches of contacts, as fingers pressed on a surface make, need few
+  (``volume_exact`` False). A full-rank hull that fails qhull's precision checks is built again
+  from joggled input (qhull's ``QJ``). Patches of contacts, as fingers pressed on a surface make, need few
   of their contacts in S (the flask's 80-contact grasp: 16 contacts, 6x faster than the full hull);
   contacts spread evenly over a sphere need most of them, at up to twice the full hull's cost.
 * A wrench set that does not span the 6-D wrench space (two antipodal point contacts, frictionless
@@ -48,6 +51,12 @@ Conventions (lengths in metres, angles in radians):
   from the singular values of the wrench set before qhull is called and is reported as an ordinary
   non-closure (``epsilon = 0`` and a ``reason``), not as an error. Only malformed input raises
   ``ValueError``, naming the argument.
+* A cheap bound: :func:`epsilon_upper_bound` bounds epsilon from above without a hull (the support
+  function of the wrench set along the coordinate axes and the right singular vectors, never above
+  the smallest singular value), for callers that only want grasps beating a threshold.
+
+The wrenches, the hull and epsilon are computed by the C++ library (``pairgrasp/quality.hpp``);
+this module checks the arguments' Python types and returns :class:`GraspQuality`.
 """
 from __future__ import annotations
 
@@ -56,16 +65,10 @@ import numbers
 from dataclasses import asdict, dataclass, fields
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
-__all__ = ["GraspQuality", "grasp_quality", "wrench_matrix", "contact_frames"]
+from . import _core
 
-# Relative tolerance on singular values and on the origin's facet distance: a wrench set whose
-# smallest singular value is below _RTOL times its largest is rank-deficient, and an origin closer
-# than _RTOL times the largest wrench norm to a facet counts as on the boundary. (For a unit
-# direction v, max_i |v . w_i| <= |W v|, so epsilon never exceeds the smallest singular value:
-# both tests declare the same near-degenerate grasps non-closure.)
-_RTOL = 1e-9
+__all__ = ["GraspQuality", "grasp_quality", "wrench_matrix", "contact_frames", "epsilon_upper_bound"]
 
 
 @dataclass(frozen=True)
@@ -189,21 +192,10 @@ def _check_inputs(points, normals, center, radius, mu, edges, soft, torsion, sof
     elif soft:
         raise ValueError("torsion: soft=True needs the torsional friction radius in metres "
                          "(moment about the normal <= torsion * normal force)")
-    return p, -n / length[:, None], c, radius, mu, edges, bool(soft), torsion, soft_rings
+    return p, n, c, radius, mu, edges, bool(soft), torsion, soft_rings
 
 
 # --------------------------------------------------------------------------------------- wrenches
-
-def _frames(n_in: np.ndarray):
-    """Tangent basis (t1, t2) of unit inward normals n_in (N, 3); see the module docstring."""
-    axis = np.argmin(np.abs(n_in), axis=1)             # lowest index wins a tie
-    e = np.zeros_like(n_in)
-    e[np.arange(len(n_in)), axis] = 1.0
-    t1 = e - np.sum(e * n_in, axis=1, keepdims=True) * n_in
-    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)    # |t1| >= sqrt(2/3) before normalising
-    t2 = np.cross(n_in, t1)
-    return t1, t2
-
 
 def contact_frames(normals):
     """Contact frames used for the friction pyramids.
@@ -217,40 +209,17 @@ def contact_frames(normals):
         sin(2 pi k/R) t2)``).
     """
     n = _rows3("normals", normals)
-    length = np.linalg.norm(n, axis=1)
-    if (length < 1e-30).any():
-        raise ValueError(f"normals: row {int(np.flatnonzero(length < 1e-30)[0])} has zero length")
-    n_in = -n / length[:, None]
-    t1, t2 = _frames(n_in)
-    return np.stack([t1, t2, n_in], axis=1)
+    short = np.linalg.norm(n, axis=1) < 1e-30
+    if short.any():
+        raise ValueError(f"normals: row {int(np.flatnonzero(short)[0])} has zero length")
+    return _core._contact_frames(n)
 
 
-def _local_directions(mu, edges, soft, torsion, soft_rings):
-    """(D, 3) coefficients (along t1, along t2, moment about n) of each contact's wrench directions."""
-    theta = 2.0 * np.pi * np.arange(edges) / edges
-    ring = np.stack([np.cos(theta), np.sin(theta), np.zeros(edges)], axis=1)
-    rows = [mu * ring]
-    if soft:
-        for j in range(1, soft_rings + 1):
-            phi = 0.5 * np.pi * j / (soft_rings + 1)
-            for sign in (1.0, -1.0):
-                r = mu * math.cos(phi) * ring
-                r[:, 2] = sign * torsion * math.sin(phi)
-                rows.append(r)
-        rows.append(np.array([[0.0, 0.0, torsion], [0.0, 0.0, -torsion]]))
-    return np.concatenate(rows, axis=0)
-
-
-def _wrenches(p, n_in, c, radius, mu, edges, soft, torsion, soft_rings):
-    if len(p) == 0:
-        return np.zeros((0, 6))
-    t1, t2 = _frames(n_in)
-    d = _local_directions(mu, edges, soft, torsion, soft_rings)            # (D, 3)
-    f = (n_in[:, None, :] + d[None, :, 0:1] * t1[:, None, :]
-         + d[None, :, 1:2] * t2[:, None, :])                                # (N, D, 3)
-    arm = (p - c)[:, None, :]
-    tau = np.cross(arm, f) + d[None, :, 2:3] * n_in[:, None, :]
-    return np.concatenate([f, tau / radius], axis=2).reshape(-1, 6)
+def _model(args):
+    """The C++ keyword arguments of the checked inputs ``args`` (points, outward normals, ...)."""
+    p, n, c, radius, mu, edges, soft, torsion, soft_rings = args
+    return dict(points=p, normals=n, center=c, radius=radius, mu=mu, edges=edges, soft=soft,
+                torsion=torsion, soft_rings=soft_rings)
 
 
 def wrench_matrix(points, normals, center, radius, mu=0.5, edges=8, soft=False, torsion=None,
@@ -281,16 +250,25 @@ def wrench_matrix(points, normals, center, radius, mu=0.5, edges=8, soft=False, 
             edges < 3, torsion < 0 or missing for soft contacts), naming the argument.
     """
     args = _check_inputs(points, normals, center, radius, mu, edges, soft, torsion, soft_rings)
-    return _wrenches(*args)
+    return _core.contact_wrenches(**_model(args))
+
+
+def epsilon_upper_bound(points, normals, center, radius, mu=0.5, edges=8, soft=False, torsion=None,
+                        soft_rings=0) -> float:
+    """An upper bound of the grasp's epsilon that needs no hull (O(number of wrenches)).
+
+    For any unit direction v, a ball of radius epsilon inside the wrench hull stays within the
+    half-space ``v . x <= max_w v . w``; the bound is the smallest such support value over the 12
+    directions +-e_k and the 12 directions +-v_k of the wrench matrix's right singular vectors,
+    clamped to >= 0, so it never exceeds the smallest singular value. A grasp whose bound is below
+    a threshold cannot reach it, and :func:`grasp_quality` need not be called. Arguments as
+    :func:`wrench_matrix`; 0 for no contacts.
+    """
+    args = _check_inputs(points, normals, center, radius, mu, edges, soft, torsion, soft_rings)
+    return float(_core._epsilon_upper_bound(_core.contact_wrenches(**_model(args))))
 
 
 # ---------------------------------------------------------------------------------------- quality
-
-def _not_closure(n_contacts, n_wrenches, rank, reason, volume=0.0):
-    return GraspQuality(epsilon=0.0, volume=float(volume), force_closure=False,
-                        n_contacts=int(n_contacts), n_wrenches=int(n_wrenches), rank=int(rank),
-                        reason=reason)
-
 
 def grasp_quality(points, normals, center, radius, mu=0.5, edges=8, soft=False, torsion=None,
                   soft_rings=0, max_hull_wrenches: int = 320, open_volume: bool = True) -> GraspQuality:
@@ -301,9 +279,10 @@ def grasp_quality(points, normals, center, radius, mu=0.5, edges=8, soft=False, 
     ``soft_rings``), and ``max_hull_wrenches``: above this many wrenches (after dropping the
     contacts inside their normal group, which changes nothing), epsilon is computed exactly by the
     active set of the module notes and the volume is a lower bound. ``open_volume=False``: the
-    hull volume of a grasp that is not force-closure is not wanted, so a linear program (is the
-    origin a convex combination of the wrenches?) rules such grasps out first, without the hull
-    (volume 0, ``volume_exact`` False); force-closure results are unchanged.
+    hull volume of a grasp that is not force-closure is not wanted, so a grasp whose wrenches a
+    hyperplane through the origin separates from it (Gilbert's minimum-norm iteration) is ruled
+    out first, without the hull (volume 0, ``volume_exact`` False); force-closure results are
+    unchanged.
 
     Returns:
         :class:`GraspQuality`. A grasp whose wrenches do not span the wrench space (e.g. two point
@@ -314,166 +293,6 @@ def grasp_quality(points, normals, center, radius, mu=0.5, edges=8, soft=False, 
         ValueError: malformed input, naming the argument (see :func:`wrench_matrix`).
     """
     args = _check_inputs(points, normals, center, radius, mu, edges, soft, torsion, soft_rings)
-    _count("max_hull_wrenches", max_hull_wrenches, 7)
-    p, n_in = args[0], args[1]
-    n_contacts = len(p)
-    if n_contacts == 0:
-        return _not_closure(0, 0, 0, "no contacts")
-    per_contact = len(_local_directions(*args[4:]))
-    n_wrenches = n_contacts * per_contact
-    keep = _group_hull_vertices(p, n_in)
-    w = _wrenches(p[keep], n_in[keep], *args[2:]).reshape(len(keep), per_contact, 6)
-    flat = w.reshape(-1, 6)
-    s = np.linalg.svd(np.unique(flat, axis=0), compute_uv=False)
-    tol = _RTOL * s[0]
-    rank = int(np.count_nonzero(s > tol))
-    if rank < 6:
-        return _not_closure(n_contacts, n_wrenches, rank,
-                            f"rank-deficient wrench set (rank {rank} < 6): the contacts cannot "
-                            f"resist every wrench")
-    boundary_tol = _RTOL * float(np.linalg.norm(flat, axis=1).max())
-    if not open_volume and not _origin_in_hull(flat):
-        return GraspQuality(epsilon=0.0, volume=0.0, force_closure=False, n_contacts=n_contacts,
-                            n_wrenches=n_wrenches, rank=rank, reason="the origin is outside the wrench hull",
-                            volume_exact=False)
-    if len(flat) <= max_hull_wrenches:
-        out = _hull_quality(flat, tol, boundary_tol)[:3] + (True,)
-    else:
-        out = _active_set_quality(w, p[keep], n_in[keep], float(args[3]), tol, boundary_tol)
-    eps, volume, reason, exact = out
-    if reason:
-        return GraspQuality(epsilon=0.0, volume=float(volume), force_closure=False, n_contacts=n_contacts,
-                            n_wrenches=n_wrenches, rank=rank, reason=reason, volume_exact=exact)
-    return GraspQuality(epsilon=eps, volume=float(volume), force_closure=True, n_contacts=n_contacts,
-                        n_wrenches=n_wrenches, rank=rank, reason="", volume_exact=exact)
-
-
-def _origin_in_hull(w: np.ndarray) -> bool:
-    """Whether the origin is a convex combination of the rows of ``w`` (an LP feasibility problem:
-    lambda >= 0, sum lambda = 1, w^T lambda = 0). Only an infeasible answer is used, to skip the
-    hull; on the boundary or when the solver is unsure it answers True and the hull decides."""
-    from scipy.optimize import linprog
-
-    n = len(w)
-    a_eq = np.vstack([w.T, np.ones((1, n))])
-    b_eq = np.zeros(7)
-    b_eq[6] = 1.0
-    res = linprog(np.zeros(n), A_eq=a_eq, b_eq=b_eq, bounds=(0, None), method="highs")
-    return res.status != 2                        # 2: infeasible
-
-
-def _group_hull_vertices(p: np.ndarray, n_in: np.ndarray) -> np.ndarray:
-    """Indices of the contacts to keep: for each group of contacts whose normals are equal bit for
-    bit, the vertices of the convex hull of the group's points (in the group's affine span); the
-    others' wrenches are convex combinations of the kept ones' (module notes)."""
-    _, group = np.unique(np.ascontiguousarray(n_in).view(np.dtype((np.void, 24))).ravel(), return_inverse=True)
-    keep = []
-    for g in range(int(group.max()) + 1):
-        idx = np.flatnonzero(group == g)
-        if len(idx) <= 2:
-            keep.extend(idx.tolist())
-            continue
-        q = p[idx] - p[idx].mean(axis=0)
-        _, sv, vt = np.linalg.svd(q, full_matrices=False)
-        dim = int(np.count_nonzero(sv > 1e-9 * max(sv[0], 1e-300)))
-        if dim == 0:
-            keep.append(int(idx[0]))                  # every point the same
-            continue
-        y = q @ vt[:dim].T
-        if dim == 1:
-            keep.extend(idx[[int(np.argmin(y[:, 0])), int(np.argmax(y[:, 0]))]].tolist())
-            continue
-        try:
-            keep.extend(idx[ConvexHull(y).vertices].tolist())
-        except QhullError:                            # numerically flatter than the SVD said: keep all
-            keep.extend(idx.tolist())
-    return np.array(sorted(set(keep)), dtype=int)
-
-
-def _hull_quality(u: np.ndarray, tol: float, boundary_tol: float):
-    """(epsilon, volume, reason, equations) of the hull of the wrenches ``u`` (rank 6); ``equations``
-    are qhull's facet planes (F, 7): unit outward normal a and offset b, a . x + b <= 0 inside; None
-    when there is no 6-D hull."""
-    u = np.unique(u, axis=0)                      # frictionless edges coincide exactly
-    if len(u) < 7:
-        return 0.0, 0.0, (f"only {len(u)} distinct wrenches: the origin cannot be inside a 6-D hull "
-                          f"of fewer than 7 points"), None
-    sa = np.linalg.svd(u - u.mean(axis=0), compute_uv=False)
-    affine_rank = int(np.count_nonzero(sa > tol))
-    if affine_rank < 6:
-        return 0.0, 0.0, f"the wrenches lie in a {affine_rank}-D affine subspace that misses the origin", None
-    try:
-        hull = ConvexHull(u)
-    except QhullError:
-        # Nearly coplanar wrenches (contacts a rounding error off a pad's edge) can make qhull's
-        # final precision check fail on a full-rank hull; joggled input (random moves of about
-        # 1e-11 of the coordinates) has no such facets and changes epsilon by as little.
-        try:
-            hull = ConvexHull(u, qhull_options="QJ")
-        except QhullError as exc:                 # numerically flat despite the rank tests
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else "QhullError"
-            return 0.0, 0.0, f"degenerate wrench hull (qhull: {first})", None
-    # equations: unit outward normal a and offset b with a . x + b <= 0 inside; the origin's
-    # distance to facet j is -b_j when it lies inside every facet.
-    distance = float(-hull.equations[:, -1].max())
-    if distance > boundary_tol:
-        return distance, float(hull.volume), "", hull.equations
-    where = "outside" if distance < -boundary_tol else "on the boundary of"
-    return 0.0, float(hull.volume), f"the origin is {where} the wrench hull", hull.equations
-
-
-def _active_set_quality(w: np.ndarray, p: np.ndarray, n_in: np.ndarray, radius: float, tol: float,
-                        boundary_tol: float, start: int = 12, chunk: int = 4096):
-    """Exact epsilon of the hull of every wrench ``w`` (N, D, 6) from hulls of growing subsets S of
-    the contacts (module notes). S starts with ``start`` contacts spread by farthest-point sampling
-    over (point / radius, normal). Each facet f of hull(S) (unit normal a_f, offset d_f from the
-    origin) bounds the whole set's epsilon: epsilon <= U = min_f max_w a_f . w, while epsilon(S) =
-    L = min_f d_f is a lower bound. When U <= L the two meet; otherwise every facet with d_f < U is
-    one the whole hull reaches beyond, and the contact of its farthest wrench joins S."""
-    n = len(w)
-    flat = w.reshape(-1, 6)
-    per = w.shape[1]
-    coords = np.concatenate([p / radius, n_in], axis=1)
-    dist = np.linalg.norm(coords - coords[0], axis=1)
-    in_set = np.zeros(n, bool)
-    in_set[0] = True
-    while in_set.sum() < min(start, n):
-        k = int(np.argmax(dist))
-        in_set[k] = True
-        dist = np.minimum(dist, np.linalg.norm(coords - coords[k], axis=1))
-    while True:
-        sub = w[in_set].reshape(-1, 6)
-        eps, volume, reason, facet = _hull_quality(sub, tol, boundary_tol)
-        if in_set.all():
-            return eps, volume, reason, True
-        if facet is None:                         # the subset does not span 6-D: widen it
-            far = np.linalg.norm(coords[:, None, :] - coords[in_set][None, :, :], axis=2).min(axis=1)
-            far[in_set] = -1.0
-            in_set[np.argsort(-far, kind="stable")[:start]] = True
-            continue
-        eq = facet                                # every facet: (F, 7), a . x + b <= 0 inside
-        d = -eq[:, -1]
-        order = np.argsort(d, kind="stable")
-        lower = float(d[order[0]])
-        upper = np.inf
-        add = set()
-        for c0 in range(0, len(order), chunk):
-            idx = order[c0:c0 + chunk]
-            if d[idx[0]] >= upper - boundary_tol:
-                break
-            proj = flat @ eq[idx, :6].T           # (N*D, k)
-            best = proj.argmax(axis=0)
-            reach = proj[best, np.arange(len(idx))]
-            upper = min(upper, float(reach.min()))
-            relevant = d[idx] < upper - boundary_tol
-            add.update((best[relevant] // per).tolist())
-        if upper <= boundary_tol:                 # a direction no wrench reaches beyond the origin
-            where = "outside" if upper < -boundary_tol else "on the boundary of"
-            return 0.0, volume, reason or f"the origin is {where} the wrench hull", False
-        if upper <= lower + boundary_tol:         # the bounds meet: epsilon(S) is the whole set's
-            return eps, volume, reason, False
-        new = [k for k in add if not in_set[k]]
-        if not new:                               # cannot happen in exact arithmetic; be safe
-            in_set[:] = True
-            continue
-        in_set[new] = True
+    max_hull_wrenches = _count("max_hull_wrenches", max_hull_wrenches, 7)
+    return GraspQuality(*_core._grasp_quality(**_model(args), max_hull_wrenches=max_hull_wrenches,
+                                              open_volume=bool(open_volume)))

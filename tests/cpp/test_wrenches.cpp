@@ -62,3 +62,42 @@ TEST(Wrenches, BadInputThrows) {
   bad(0, 1) = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(pg::wrench_matrix(bad, n, c, 1.0), std::invalid_argument);
 }
+
+TEST(Wrenches, SoftContactSamplesTheEllipticLimitSurface) {
+  // One contact at (0.1, 0, 0.2), outward normal +z, r = 0.5: pyramid of 4 edges, one ring, poles.
+  pg::Points p(1, 3), n(1, 3);
+  p << 0.1, 0.0, 0.2;
+  n << 0.0, 0.0, 3.0;  // any length
+  pg::ContactModel m;
+  m.mu = 0.5;
+  m.edges = 4;
+  m.soft = true;
+  m.torsion = 0.01;
+  m.soft_rings = 1;
+  ASSERT_EQ(m.wrenches_per_contact(), 4 * 3 + 2);
+  const double r = 0.5;
+  const pg::Wrenches w = pg::wrench_matrix(p, n, Eigen::Vector3d::Zero(), r, m);
+  ASSERT_EQ(w.rows(), 14);
+  const Eigen::Vector3d n_in(0, 0, -1), arm(0.1, 0, 0.2);
+  // the frame: t1 = x (least-aligned axis, tie x/y -> x), t2 = n_in x t1 = -y, rows right-handed
+  const Eigen::Matrix3d frame = pg::contact_frame(n.row(0).transpose());
+  EXPECT_TRUE(frame.isApprox((Eigen::Matrix3d() << 1, 0, 0, 0, -1, 0, 0, 0, -1).finished(), 1e-15));
+  EXPECT_NEAR(frame.determinant(), 1.0, 1e-15);
+  for (int k = 0; k < 14; ++k) {
+    const Eigen::Vector3d f = w.row(k).head<3>().transpose();
+    const double moment = (r * w.row(k).tail<3>().transpose() - arm.cross(f)).dot(n_in);
+    const double ft = (f - f.dot(n_in) * n_in).norm();
+    EXPECT_NEAR(f.dot(n_in), 1.0, 1e-14) << k;
+    EXPECT_NEAR(std::pow(ft / m.mu, 2) + std::pow(moment / *m.torsion, 2), 1.0, 1e-12) << k;  // on the ellipse
+  }
+  // ring at phi = pi/4: positive moment for rows 4..7, negative for 8..11; then the poles +-torsion
+  const double s = std::sin(std::acos(-1.0) / 4) * *m.torsion;
+  for (int k = 4; k < 8; ++k) {
+    const Eigen::Vector3d f = w.row(k).head<3>().transpose();
+    EXPECT_NEAR((r * w.row(k).tail<3>().transpose() - arm.cross(f)).dot(n_in), s, 1e-14) << k;
+  }
+  EXPECT_NEAR(w(12, 5) * r, -(0.01), 1e-15);  // +torsion about n_in = -z: torque z = -0.01
+  EXPECT_NEAR(w(13, 5) * r, 0.01, 1e-15);
+  m.torsion.reset();
+  EXPECT_THROW(pg::wrench_matrix(p, n, Eigen::Vector3d::Zero(), r, m), std::invalid_argument);
+}

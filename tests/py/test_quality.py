@@ -1,17 +1,21 @@
 """Grasp quality (Ferrari-Canny epsilon, eq. 2-7) against independent computations.
 
-The independent references here never call qhull: they are a brute-force enumeration of the
-supporting hyperplanes through every 6 wrenches, the support function h(u) = max_w u.w of the
-wrench set (whose minimum over unit directions u is epsilon when the origin is inside the hull), a
-linear program for "the wrenches positively span R^6" (force closure), and a closed form derived on
-paper for two antipodal soft-finger contacts.
+The library computes epsilon in C++ with qhull's reentrant library. The independent references
+here are wrenches built one by one in NumPy from the documented convention, a brute-force
+enumeration of the supporting hyperplanes through every 6 wrenches, the support function
+h(u) = max_w u.w of the wrench set (whose minimum over unit directions u is epsilon when the origin
+is inside the hull), a linear program for "the wrenches positively span R^6" (force closure), a
+closed form derived on paper for two antipodal soft-finger contacts, and SciPy's ConvexHull of the
+NumPy wrenches (the oracle for larger sets).
 """
 import itertools
 import math
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
 from scipy.optimize import linprog, minimize
+from scipy.spatial import ConvexHull
 
 import pairgrasp as pg
 
@@ -420,11 +424,10 @@ def test_epsilon_is_finite_and_nonnegative_on_degenerate_grasps():
 
 # ------------------------------------------------------------------------------- exact reductions
 
-def _full_hull_epsilon(P, N, radius, mu=0.5, edges=8):
-    """Epsilon and volume of the hull of every wrench, by scipy directly (no reduction)."""
-    from scipy.spatial import ConvexHull
-
-    hull = ConvexHull(np.unique(pg.wrench_matrix(P, N, ORIGIN, radius, mu=mu, edges=edges), axis=0))
+def _full_hull_epsilon(P, N, radius, mu=0.5, edges=8, torsion=None, rings=0, center=ORIGIN):
+    """Epsilon and volume of the hull of every wrench (built in NumPy by reference_wrenches), by
+    SciPy's ConvexHull directly (no reduction): epsilon is the smallest facet offset."""
+    hull = ConvexHull(np.unique(reference_wrenches(P, N, center, radius, mu, edges, torsion, rings), axis=0))
     d = float(-hull.equations[:, -1].max())
     return max(d, 0.0), float(hull.volume)
 
@@ -497,7 +500,7 @@ def test_active_set_epsilon_equals_the_full_hull(seed):
 
 @pytest.mark.parametrize("seed", range(8))
 def test_without_open_volume_only_non_closure_changes(seed):
-    """open_volume=False rules non-closure out by a linear program: the classification and every
+    """open_volume=False rules non-closure out by a separating hyperplane: the classification and every
     force-closure result are those of the hull; a non-closure grasp just has no volume."""
     rng = np.random.default_rng(100 + seed)
     n = 10
@@ -570,9 +573,9 @@ def test_bad_input_raises_value_error_naming_the_argument(fn, change, name):
         fn(**kwargs)
 
 
-def test_cpp_contact_wrenches_match_python():
-    """The C++ wrench matrix (pairgrasp.contact_wrenches) and the NumPy one are written
-    independently; they must agree row for row."""
+def test_contact_wrenches_match_the_reference():
+    """pairgrasp.contact_wrenches (the C++ wrench matrix behind pairgrasp.wrench_matrix) against
+    the wrenches built one by one in this file, point and soft contacts."""
     rng = np.random.default_rng(11)
     P = rng.normal(size=(6, 3)) * 0.05
     N = rng.normal(size=(6, 3))
@@ -580,10 +583,99 @@ def test_cpp_contact_wrenches_match_python():
     c = rng.normal(size=3) * 0.01
     for mu, k in ((0.5, 8), (0.0, 3), (1.3, 17)):
         cpp = np.asarray(pg.contact_wrenches(P, N, c, 0.07, mu=mu, edges=k))
-        py = pg.wrench_matrix(P, N, c, 0.07, mu=mu, edges=k)
-        assert cpp.shape == py.shape == (6 * k, 6)
-        np.testing.assert_allclose(cpp, py, atol=1e-13)
+        assert cpp.shape == (6 * k, 6)
+        np.testing.assert_allclose(cpp, reference_wrenches(P, N, c, 0.07, mu, k), atol=1e-13)
+        soft = np.asarray(pg.contact_wrenches(P, N, c, 0.07, mu=mu, edges=k, soft=True, torsion=0.003,
+                                              soft_rings=2))
+        np.testing.assert_allclose(soft, reference_wrenches(P, N, c, 0.07, mu, k, 0.003, 2), atol=1e-13)
     with pytest.raises(ValueError, match="edges"):
         pg.contact_wrenches(P, N, c, 0.07, edges=2)
     with pytest.raises(ValueError, match="radius"):
         pg.contact_wrenches(P, N, c, -1.0)
+    with pytest.raises(ValueError, match="torsion"):
+        pg.contact_wrenches(P, N, c, 0.07, soft=True)
+
+
+# ------------------------------------------------------------------ SciPy's qhull as the oracle
+
+def _scipy_cases(rng):
+    """(P, N, center, radius, mu, edges, torsion, rings) of random and hand-made grasps."""
+    cases = []
+    for m in (3, 4, 6, 9, 14):
+        P, N = sphere_grasp(rng, m, scatter=0.3)
+        cases.append((P, N, rng.normal(size=3) * 0.003, 0.03, float(rng.uniform(0.2, 1.2)), 8, None, 0))
+    for m in (4, 7, 12):
+        P, N, r = box_grasp(rng, m)
+        cases.append((P, N, ORIGIN, r, float(rng.uniform(0.2, 1.0)), 6, None, 0))
+    a = 0.02                                                     # the cube's face centres
+    cube = np.vstack([a * np.eye(3), -a * np.eye(3)])
+    cases.append((cube, cube / a, ORIGIN, math.sqrt(3) * a, 0.5, 8, None, 0))
+    for m, rings in ((2, 0), (3, 1), (5, 2)):                    # soft contacts
+        P, N = sphere_grasp(rng, m, scatter=0.2)
+        cases.append((P, N, ORIGIN, 0.03, float(rng.uniform(0.3, 1.0)), 6, 0.004, rings))
+    return cases
+
+
+def test_epsilon_and_volume_match_scipy_convex_hull():
+    """Epsilon and volume equal those of SciPy's ConvexHull of the wrenches built in NumPy, within
+    1e-9 relative, on random and hand-made contact sets, point and soft contacts."""
+    rng = np.random.default_rng(40)
+    fc = 0
+    for P, N, c, r, mu, R, torsion, rings in _scipy_cases(rng):
+        soft = torsion is not None
+        q = pg.grasp_quality(P, N, c, r, mu=mu, edges=R, soft=soft, torsion=torsion, soft_rings=rings,
+                             max_hull_wrenches=100_000)
+        eps, vol = _full_hull_epsilon(P, N, r, mu, R, torsion, rings, center=c)
+        assert q.volume_exact
+        assert q.force_closure == (eps > 1e-9), (q, eps)
+        assert q.epsilon == pytest.approx(eps if q.force_closure else 0.0, rel=1e-9, abs=1e-15)
+        assert q.volume == pytest.approx(vol, rel=1e-9)
+        fc += q.force_closure
+    assert fc >= 6
+
+
+def test_default_reduction_matches_scipy_convex_hull():
+    """With the default max_hull_wrenches (the active set on larger sets), epsilon still equals
+    SciPy's full-hull epsilon; the volume is a lower bound when not exact."""
+    rng = np.random.default_rng(41)
+    for m in (30, 45, 60):
+        P, N = sphere_grasp(rng, m, scatter=0.2)
+        eps, vol = _full_hull_epsilon(P, N, 0.03, 0.5, 8)
+        q = pg.grasp_quality(P, N, ORIGIN, 0.03)
+        assert q.epsilon == pytest.approx(eps, rel=1e-9)
+        assert q.volume <= vol * (1 + 1e-9)
+        assert q.volume == pytest.approx(vol, rel=1e-9) if q.volume_exact else q.volume < vol
+
+
+def test_upper_bound_is_never_below_epsilon():
+    rng = np.random.default_rng(42)
+    tight = 0
+    for trial in range(40):
+        P, N = sphere_grasp(rng, int(rng.integers(2, 12)), scatter=0.5)
+        mu, R = float(rng.uniform(0.05, 1.5)), int(rng.integers(3, 12))
+        torsion = 0.003 if trial % 3 == 0 else None
+        kw = dict(mu=mu, edges=R, soft=torsion is not None, torsion=torsion)
+        bound = pg.epsilon_upper_bound(P, N, ORIGIN, 0.03, **kw)
+        eps = pg.grasp_quality(P, N, ORIGIN, 0.03, **kw).epsilon
+        W = reference_wrenches(P, N, ORIGIN, 0.03, mu, R, torsion)
+        assert eps <= bound * (1 + 1e-12)
+        assert bound <= np.linalg.svd(W, compute_uv=False)[-1] * (1 + 1e-12)   # never above sigma_min
+        tight += bound < 2 * eps
+    assert tight >= 5
+    assert pg.epsilon_upper_bound(np.zeros((0, 3)), np.zeros((0, 3)), ORIGIN, 0.03) == 0.0
+
+
+def test_threads_give_the_serial_answers():
+    """Many calls from a thread pool (the GIL is released during the C++ work, each call has its own
+    qhull state) give exactly the serial answers."""
+    rng = np.random.default_rng(43)
+    grasps = [sphere_grasp(rng, int(rng.integers(4, 30)), scatter=0.3) for _ in range(40)]
+
+    def run(k):
+        P, N = grasps[k]
+        return pg.grasp_quality(P, N, ORIGIN, 0.03, mu=0.6, max_hull_wrenches=7 if k % 3 == 0 else 320)
+
+    serial = [run(k) for k in range(len(grasps))]
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        for _ in range(2):
+            assert list(pool.map(run, range(len(grasps)))) == serial

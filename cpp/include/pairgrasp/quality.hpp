@@ -1,0 +1,95 @@
+#pragma once
+/// @file quality.hpp
+/// Grasp quality: the Ferrari-Canny epsilon of the L1 grasp wrench space (paper eq. 2-7) and the
+/// wrench hull's volume, computed with qhull's reentrant library (each call has its own qhull
+/// state, so calls may run on several threads at once).
+///
+/// The grasp wrench space is the convex hull of every contact wrench (wrenches.hpp), forces per
+/// unit total normal force and torques divided by the torque scale r (dimensionless). The grasp
+/// is force-closure when the origin is strictly inside that hull, and epsilon is then the distance
+/// from the origin to the nearest hull facet; otherwise epsilon is 0.
+///
+/// A wrench set that does not span the 6-D wrench space (two antipodal point contacts,
+/// frictionless or single-face contacts, fewer than 7 distinct wrenches) cannot be force-closure.
+/// It is found from the singular values of the distinct wrenches (rank: singular values above
+/// 1e-9 times the largest) before qhull is called and is an ordinary non-closure (epsilon 0 and a
+/// reason), not an error. An origin within 1e-9 times the largest wrench norm of a facet counts as
+/// on the boundary (not force-closure). A full-rank hull that fails qhull's precision checks is
+/// built again from joggled input (qhull's QJ, moves of about 1e-11 of the coordinates).
+///
+/// Two reductions keep epsilon exact:
+/// 1. Contacts sharing a normal bit for bit (several contacts on one flat face) have the same
+///    pyramid edges, and a contact's wrenches are affine in its point, so only the vertices of
+///    each normal group's point hull are kept (epsilon and volume unchanged).
+/// 2. When more than QualityOptions::max_hull_wrenches wrenches remain, epsilon comes from an
+///    active set S of contacts (12 to start, spread by farthest-point sampling over
+///    (point / r, normal)). Each facet f of hull(S), unit normal a_f at distance d_f from the
+///    origin, bounds the whole set: epsilon <= U = min_f max_w a_f.w and epsilon >= L = min_f d_f =
+///    epsilon(S). When U = L epsilon is exact; otherwise the contact of the farthest wrench beyond
+///    each facet with d_f < U joins S and the hull is rebuilt. U <= 0 proves non-closure. The
+///    volume is then that of hull(S), a lower bound (GraspQuality::volume_exact false).
+#include <pairgrasp/types.hpp>
+#include <pairgrasp/wrenches.hpp>
+
+#include <string>
+
+namespace pairgrasp {
+
+/// Options of grasp_quality().
+struct QualityOptions {
+  /// Friction model of the contacts (mu, pyramid edges, soft-finger torsion and rings).
+  ContactModel contact;
+  /// Above this many wrenches (after reduction 1) epsilon comes from the active set and the
+  /// volume is a lower bound. >= 7.
+  int max_hull_wrenches = 320;
+  /// false: the hull volume of a grasp that is not force-closure is not wanted, so a grasp whose
+  /// wrenches a hyperplane through the origin separates from it (found by Gilbert's
+  /// minimum-norm iteration, no hull and no linear programme) is reported without a hull:
+  /// volume 0, volume_exact false. Force-closure results are unchanged.
+  bool open_volume = true;
+  /// A caller that only wants grasps whose epsilon reaches this value (dimensionless, >= 0) skips
+  /// the hull of any grasp whose epsilon_upper_bound() is below it: the result then has
+  /// epsilon_computed false, epsilon 0, force_closure false, volume 0 and volume_exact false.
+  /// 0: every full-rank grasp gets its hull.
+  double min_epsilon = 0.0;
+};
+
+/// Result of grasp_quality().
+struct GraspQuality {
+  /// Distance from the origin to the nearest wrench-hull facet when force-closure, else 0
+  /// (dimensionless: forces per unit total normal force, torques divided by the torque scale).
+  double epsilon = 0.0;
+  /// 6-D volume of the wrench hull (0 when the wrenches do not span 6 dimensions).
+  double volume = 0.0;
+  bool force_closure = false;  ///< the origin is strictly inside the wrench hull
+  int n_contacts = 0;          ///< contacts given
+  int n_wrenches = 0;          ///< wrenches of every contact (rows of wrench_matrix())
+  int rank = 0;                ///< rank of the wrench set (6 when it spans the wrench space)
+  std::string reason;          ///< why the grasp is not force-closure ("" when it is)
+  /// `volume` is the hull volume of every wrench; false when epsilon came from the active set
+  /// (the volume of a subset's hull, a lower bound) or no hull was built.
+  bool volume_exact = true;
+  /// The hull-free upper bound of epsilon_upper_bound() (0 when rank < 6).
+  double epsilon_bound = 0.0;
+  /// false when the hull was skipped because epsilon_bound < QualityOptions::min_epsilon.
+  bool epsilon_computed = true;
+};
+
+/// Ferrari-Canny epsilon (L1) and hull volume of the grasp given by its contacts: `points` (N,3,
+/// metres), the target's OUTWARD normals `normals` (N,3, any non-zero length), torque origin
+/// `center` and torque scale `radius` (metres), as wrench_matrix(). No contacts: not
+/// force-closure ("no contacts").
+/// Throws std::invalid_argument naming the argument for malformed input (see wrench_matrix();
+/// also max_hull_wrenches < 7 and a negative or non-finite min_epsilon).
+GraspQuality grasp_quality(const Points& points, const Points& normals, const Eigen::Vector3d& center,
+                           double radius, const QualityOptions& options = {});
+
+/// An upper bound of the Ferrari-Canny epsilon of the wrench set `wrenches`, without a hull: for
+/// any unit direction v a ball of radius epsilon inside the hull stays in {x : v.x <= max_w v.w},
+/// so epsilon <= min_v max_w v.w over the 12 directions +-e_k of the axes and the 12 directions
+/// +-v_k of the right singular vectors of the wrench matrix. It is never above the smallest
+/// singular value (max_w v.w <= |W v|), and a negative minimum proves non-closure; the result is
+/// clamped to >= 0. O(W) time. Empty set: 0. Throws std::invalid_argument for non-finite wrenches.
+double epsilon_upper_bound(const Wrenches& wrenches);
+
+}  // namespace pairgrasp

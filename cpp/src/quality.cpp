@@ -1,0 +1,356 @@
+#include <pairgrasp/quality.hpp>
+
+#include "convex_hull.hpp"
+
+#include <Eigen/SVD>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace pairgrasp {
+
+namespace {
+
+// Relative tolerance on singular values and on the origin's facet distance: a wrench set whose
+// smallest singular value is below kRtol times its largest is rank-deficient, and an origin closer
+// than kRtol times the largest wrench norm to a facet counts as on the boundary. Since epsilon never
+// exceeds the smallest singular value, both tests declare the same near-degenerate grasps non-closure.
+constexpr double kRtol = 1e-9;
+// qhull options: SciPy's ConvexHull defaults ("Qt", plus "Qx" above 4-D), then joggled input.
+constexpr const char* kHullOptions = "Qt Qx";
+constexpr const char* kJoggleOptions = "QJ Qt";
+constexpr int kActiveSetStart = 12;
+
+using Matrix = Eigen::MatrixXd;
+
+/// The distinct rows of `w`, in lexicographic order (-0.0 equals 0.0).
+Matrix unique_rows(const Eigen::Ref<const Matrix>& w) {
+  std::vector<Eigen::Index> order(w.rows());
+  std::iota(order.begin(), order.end(), Eigen::Index{0});
+  auto less = [&](Eigen::Index a, Eigen::Index b) {
+    for (Eigen::Index c = 0; c < w.cols(); ++c)
+      if (w(a, c) != w(b, c)) return w(a, c) < w(b, c);
+    return false;
+  };
+  std::sort(order.begin(), order.end(), less);
+  std::vector<Eigen::Index> keep;
+  for (Eigen::Index i : order)
+    if (keep.empty() || less(keep.back(), i)) keep.push_back(i);
+  Matrix u(static_cast<Eigen::Index>(keep.size()), w.cols());
+  for (std::size_t k = 0; k < keep.size(); ++k) u.row(static_cast<Eigen::Index>(k)) = w.row(keep[k]);
+  return u;
+}
+
+int count_above(const Eigen::VectorXd& values, double tol) {
+  return static_cast<int>((values.array() > tol).count());
+}
+
+/// min over directions (the columns of `dirs` and their negatives) of the support max_w d.w.
+double support_minimum(const Eigen::Ref<const Matrix>& w, const Matrix& dirs) {
+  const Matrix proj = w * dirs;
+  double best = std::numeric_limits<double>::infinity();
+  for (Eigen::Index k = 0; k < proj.cols(); ++k)
+    best = std::min({best, proj.col(k).maxCoeff(), -proj.col(k).minCoeff()});
+  return best;
+}
+
+/// The bound of epsilon_upper_bound() given the right singular vectors `v` of `w`.
+double support_bound(const Eigen::Ref<const Matrix>& w, const Matrix& v) {
+  return std::max(0.0, std::min(support_minimum(w, Matrix::Identity(6, 6)), support_minimum(w, v)));
+}
+
+/// Whether a hyperplane through the origin strictly separates it from every row of `w`, found by
+/// Gilbert's minimum-norm iteration (x in conv(w); a row minimising w.x gives the next step). A
+/// "true" is a certificate (min_w w.x > tol |x| > 0); "false" means not shown within the budget.
+bool origin_separated(const Eigen::Ref<const Matrix>& w, double tol, int iterations = 200) {
+  Eigen::Index start = 0;
+  w.rowwise().squaredNorm().minCoeff(&start);
+  Eigen::VectorXd x = w.row(start).transpose();
+  for (int it = 0; it < iterations; ++it) {
+    const double norm = x.norm();
+    if (norm <= tol) return false;  // the origin is (nearly) in the hull
+    Eigen::Index s = 0;
+    const double lowest = (w * x).minCoeff(&s);
+    if (lowest > tol * norm) return true;
+    const Eigen::VectorXd d = w.row(s).transpose() - x;
+    const double dd = d.squaredNorm();
+    if (dd == 0.0) return false;
+    const double step = std::clamp(-x.dot(d) / dd, 0.0, 1.0);
+    if (step == 0.0) return false;
+    x += step * d;
+  }
+  return false;
+}
+
+/// The hull of a wrench set: epsilon, volume, the reason it is not force-closure ("" when it
+/// is) and its facet planes (empty when there is no 6-D hull).
+struct HullQuality {
+  double epsilon = 0.0;
+  double volume = 0.0;
+  std::string reason;
+  Matrix planes;  // (F, 7): unit outward normal a and offset b, a.x + b <= 0 inside
+};
+
+std::string origin_reason(double distance, double boundary_tol) {
+  return std::string("the origin is ") + (distance < -boundary_tol ? "outside" : "on the boundary of") +
+         " the wrench hull";
+}
+
+HullQuality hull_quality(const Eigen::Ref<const Matrix>& wrenches, double tol, double boundary_tol) {
+  HullQuality out;
+  const Matrix u = unique_rows(wrenches);  // frictionless edges coincide exactly
+  if (u.rows() < 7) {
+    out.reason = "only " + std::to_string(u.rows()) +
+                 " distinct wrenches: the origin cannot be inside a 6-D hull of fewer than 7 points";
+    return out;
+  }
+  const Matrix centred = u.rowwise() - u.colwise().mean();
+  const int affine_rank = count_above(Eigen::JacobiSVD<Matrix>(centred).singularValues(), tol);
+  if (affine_rank < 6) {
+    out.reason = "the wrenches lie in a " + std::to_string(affine_rank) +
+                 "-D affine subspace that misses the origin";
+    return out;
+  }
+  // Nearly coplanar wrenches (contacts a rounding error off a pad's edge) can make qhull's final
+  // precision check fail on a full-rank hull; joggled input (random moves of about 1e-11 of the
+  // coordinates, qhull's fixed seed) has no such facets and changes epsilon by as little.
+  using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const RowMatrix rows = u;
+  detail::ConvexHull hull;
+  std::string error;
+  const int n = static_cast<int>(rows.rows());
+  if (!detail::convex_hull(rows.data(), n, 6, kHullOptions, true, hull, error) &&
+      !detail::convex_hull(rows.data(), n, 6, kJoggleOptions, true, hull, error)) {
+    out.reason = "degenerate wrench hull (qhull: " + error + ")";  // numerically flat despite the rank tests
+    return out;
+  }
+  out.volume = hull.volume;
+  out.planes = std::move(hull.planes);
+  const double distance = -out.planes.col(6).maxCoeff();
+  if (distance > boundary_tol)
+    out.epsilon = distance;
+  else
+    out.reason = origin_reason(distance, boundary_tol);
+  return out;
+}
+
+/// Indices of the contacts to keep (ascending): for each group of contacts whose inward normals
+/// are equal bit for bit, the vertices of the convex hull of the group's points (in the group's
+/// affine span); the others' wrenches are convex combinations of the kept ones'.
+std::vector<Eigen::Index> group_hull_vertices(const Points& p, const Points& n_in) {
+  std::map<std::array<unsigned char, 24>, std::vector<Eigen::Index>> groups;
+  for (Eigen::Index i = 0; i < p.rows(); ++i) {
+    std::array<unsigned char, 24> key;
+    const double v[3] = {n_in(i, 0), n_in(i, 1), n_in(i, 2)};
+    std::memcpy(key.data(), v, sizeof v);
+    groups[key].push_back(i);
+  }
+  std::vector<Eigen::Index> keep;
+  for (const auto& entry : groups) {
+    const std::vector<Eigen::Index>& idx = entry.second;
+    const auto m = static_cast<Eigen::Index>(idx.size());
+    if (m <= 2) {
+      keep.insert(keep.end(), idx.begin(), idx.end());
+      continue;
+    }
+    Matrix q(m, 3);
+    for (Eigen::Index k = 0; k < m; ++k) q.row(k) = p.row(idx[k]);
+    q = q.rowwise() - q.colwise().mean();
+    Eigen::JacobiSVD<Matrix> svd(q, Eigen::ComputeThinV);
+    const Eigen::VectorXd& sv = svd.singularValues();
+    const int dim = count_above(sv, 1e-9 * std::max(sv(0), 1e-300));
+    if (dim == 0) {  // every point the same
+      keep.push_back(idx[0]);
+      continue;
+    }
+    using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    const RowMatrix y = q * svd.matrixV().leftCols(dim);
+    if (dim == 1) {
+      Eigen::Index lo = 0, hi = 0;
+      y.col(0).minCoeff(&lo);
+      y.col(0).maxCoeff(&hi);
+      keep.push_back(idx[lo]);
+      keep.push_back(idx[hi]);
+      continue;
+    }
+    detail::ConvexHull hull;
+    std::string error;
+    if (detail::convex_hull(y.data(), static_cast<int>(m), dim, "Qt", false, hull, error)) {
+      for (int v : hull.vertices) keep.push_back(idx[v]);
+    } else {  // numerically flatter than the SVD said: keep all
+      keep.insert(keep.end(), idx.begin(), idx.end());
+    }
+  }
+  std::sort(keep.begin(), keep.end());
+  keep.erase(std::unique(keep.begin(), keep.end()), keep.end());
+  return keep;
+}
+
+/// Epsilon from hulls of growing subsets S of the contacts (the header's reduction 2). `w` holds
+/// `per` rows per contact; `coords` (contacts, 6) = (point / radius, normal) spreads the start.
+struct ActiveSetQuality {
+  double epsilon = 0.0, volume = 0.0;
+  std::string reason;
+  bool exact = false;
+};
+
+ActiveSetQuality active_set_quality(const Matrix& w, Eigen::Index per, const Matrix& coords, double tol,
+                                    double boundary_tol) {
+  const Eigen::Index n = coords.rows();
+  if (n == 0) return {0.0, 0.0, "no contacts", true};
+  std::vector<char> in_set(n, 0);
+  auto distance_to_set = [&](Eigen::Index i) {
+    double best = std::numeric_limits<double>::infinity();
+    for (Eigen::Index k = 0; k < n; ++k)
+      if (in_set[k]) best = std::min(best, (coords.row(i) - coords.row(k)).norm());
+    return best;
+  };
+  in_set[0] = 1;
+  Eigen::VectorXd dist = (coords.rowwise() - coords.row(0)).rowwise().norm();
+  for (Eigen::Index size = 1; size < std::min<Eigen::Index>(kActiveSetStart, n); ++size) {
+    Eigen::Index k = 0;  // the first farthest contact
+    for (Eigen::Index i = 1; i < n; ++i)
+      if (dist[i] > dist[k]) k = i;
+    in_set[k] = 1;
+    dist = dist.cwiseMin((coords.rowwise() - coords.row(k)).rowwise().norm());
+  }
+  while (true) {
+    std::vector<Eigen::Index> members;
+    for (Eigen::Index i = 0; i < n; ++i)
+      if (in_set[i]) members.push_back(i);
+    Matrix sub(static_cast<Eigen::Index>(members.size()) * per, 6);
+    for (std::size_t k = 0; k < members.size(); ++k)
+      sub.middleRows(static_cast<Eigen::Index>(k) * per, per) = w.middleRows(members[k] * per, per);
+    HullQuality h = hull_quality(sub, tol, boundary_tol);
+    if (static_cast<Eigen::Index>(members.size()) == n) return {h.epsilon, h.volume, h.reason, true};
+    if (h.planes.rows() == 0) {  // the subset does not span 6-D: widen it by its farthest contacts
+      std::vector<double> far(n);
+      for (Eigen::Index i = 0; i < n; ++i) far[i] = in_set[i] ? -1.0 : distance_to_set(i);
+      std::vector<Eigen::Index> order(n);
+      std::iota(order.begin(), order.end(), Eigen::Index{0});
+      std::stable_sort(order.begin(), order.end(), [&](Eigen::Index a, Eigen::Index b) { return far[a] > far[b]; });
+      for (Eigen::Index k = 0; k < std::min<Eigen::Index>(kActiveSetStart, n); ++k) in_set[order[k]] = 1;
+      continue;
+    }
+    const Eigen::VectorXd d = -h.planes.col(6);
+    std::vector<Eigen::Index> order(d.size());
+    std::iota(order.begin(), order.end(), Eigen::Index{0});
+    std::stable_sort(order.begin(), order.end(), [&](Eigen::Index a, Eigen::Index b) { return d[a] < d[b]; });
+    const double lower = d[order[0]];
+    double upper = std::numeric_limits<double>::infinity();
+    std::vector<Eigen::Index> add;
+    for (Eigen::Index f : order) {
+      // A facet at or beyond the bound cannot be one the whole hull reaches past by more than the
+      // tolerance (its own reach is at least its distance), so the remaining facets change nothing.
+      if (d[f] >= upper - boundary_tol) break;
+      Eigen::Index best = 0;
+      const double reach = (w * h.planes.row(f).head<6>().transpose()).maxCoeff(&best);
+      upper = std::min(upper, reach);
+      if (d[f] < upper - boundary_tol) add.push_back(best / per);
+    }
+    if (upper <= boundary_tol)  // a direction no wrench reaches beyond the origin
+      return {0.0, h.volume, h.reason.empty() ? origin_reason(upper, boundary_tol) : h.reason, false};
+    if (upper <= lower + boundary_tol) return {h.epsilon, h.volume, h.reason, false};  // the bounds meet
+    bool grew = false;
+    for (Eigen::Index c : add)
+      if (!in_set[c]) in_set[c] = 1, grew = true;
+    if (!grew) std::fill(in_set.begin(), in_set.end(), 1);  // cannot happen in exact arithmetic
+  }
+}
+
+void check_options(const QualityOptions& o) {
+  if (o.max_hull_wrenches < 7)
+    throw std::invalid_argument("max_hull_wrenches: expected an integer >= 7, got " +
+                                std::to_string(o.max_hull_wrenches));
+  if (!(o.min_epsilon >= 0.0) || !std::isfinite(o.min_epsilon))
+    throw std::invalid_argument("min_epsilon: expected a finite value >= 0, got " + std::to_string(o.min_epsilon));
+}
+
+}  // namespace
+
+double epsilon_upper_bound(const Wrenches& wrenches) {
+  if (!wrenches.allFinite()) throw std::invalid_argument("wrenches: non-finite value");
+  if (wrenches.rows() == 0) return 0.0;
+  const Matrix w = wrenches;
+  Eigen::JacobiSVD<Matrix> svd(w, Eigen::ComputeFullV);
+  return support_bound(w, svd.matrixV());
+}
+
+GraspQuality grasp_quality(const Points& points, const Points& normals, const Eigen::Vector3d& center,
+                           double radius, const QualityOptions& options) {
+  check_options(options);
+  const Wrenches all = wrench_matrix(points, normals, center, radius, options.contact);  // validates
+  GraspQuality q;
+  q.n_contacts = static_cast<int>(points.rows());
+  q.n_wrenches = static_cast<int>(all.rows());
+  if (q.n_contacts == 0) {
+    q.reason = "no contacts";
+    return q;
+  }
+  const Eigen::Index per = options.contact.wrenches_per_contact();
+
+  // Reduction 1: the vertices of each normal group's point hull.
+  Points n_in(normals.rows(), 3);
+  for (Eigen::Index i = 0; i < normals.rows(); ++i) n_in.row(i) = -normals.row(i) / normals.row(i).norm();
+  const std::vector<Eigen::Index> keep = group_hull_vertices(points, n_in);
+  const auto kept = static_cast<Eigen::Index>(keep.size());
+  Matrix w(kept * per, 6);
+  Matrix coords(kept, 6);
+  for (Eigen::Index k = 0; k < kept; ++k) {
+    w.middleRows(k * per, per) = all.middleRows(keep[k] * per, per);
+    coords.row(k) << points.row(keep[k]) / radius, n_in.row(keep[k]);
+  }
+
+  const Matrix distinct = unique_rows(w);
+  Eigen::JacobiSVD<Matrix> svd(distinct, Eigen::ComputeFullV);
+  const Eigen::VectorXd& s = svd.singularValues();
+  const double tol = kRtol * s(0);
+  q.rank = count_above(s, tol);
+  if (q.rank < 6) {
+    q.reason = "rank-deficient wrench set (rank " + std::to_string(q.rank) +
+               " < 6): the contacts cannot resist every wrench";
+    return q;
+  }
+  q.epsilon_bound = support_bound(distinct, svd.matrixV());
+  const double boundary_tol = kRtol * w.rowwise().norm().maxCoeff();
+  if (options.min_epsilon > 0.0 && q.epsilon_bound < options.min_epsilon) {
+    q.epsilon_computed = false;
+    q.volume_exact = false;
+    char text[160];
+    std::snprintf(text, sizeof text, "epsilon upper bound %.6g is below min_epsilon %.6g: hull skipped",
+                  q.epsilon_bound, options.min_epsilon);
+    q.reason = text;
+    return q;
+  }
+  if (!options.open_volume && origin_separated(distinct, boundary_tol)) {
+    q.reason = "the origin is outside the wrench hull";
+    q.volume_exact = false;
+    return q;
+  }
+  if (w.rows() <= options.max_hull_wrenches) {
+    HullQuality h = hull_quality(w, tol, boundary_tol);
+    q.epsilon = h.epsilon;
+    q.volume = h.volume;
+    q.reason = std::move(h.reason);
+  } else {
+    ActiveSetQuality a = active_set_quality(w, per, coords, tol, boundary_tol);
+    q.epsilon = a.epsilon;
+    q.volume = a.volume;
+    q.reason = std::move(a.reason);
+    q.volume_exact = a.exact;
+  }
+  if (!q.reason.empty()) q.epsilon = 0.0;
+  q.force_closure = q.reason.empty();
+  return q;
+}
+
+}  // namespace pairgrasp
