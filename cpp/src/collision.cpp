@@ -299,11 +299,7 @@ vd::PairCheck GraspChecker::Impl::check_pair(int l, const Pose& pose, int s, dou
   const vd::LinkModel& L = links[l];
   const vd::SceneModel& S = scene[s];
   vd::PairCheck r;
-  const Eigen::AlignedBox3d lb = vd::transform_box(L.bounds, pose);
-  Eigen::AlignedBox3d sb = S.bounds;
-  sb.min().array() -= options.contact_gap;
-  sb.max().array() += options.contact_gap;
-  if (!lb.intersects(sb)) return r;
+  if (!vd::boxes_within(vd::transform_box(L.bounds, pose), S.bounds, options.contact_gap)) return r;
   r.near = true;
 
   fcl::CollisionRequestd request;  // one contact, yes/no
@@ -318,29 +314,15 @@ vd::PairCheck GraspChecker::Impl::check_pair(int l, const Pose& pose, int s, dou
     const Pose inv = pose.inverse();
     const vd::SurfaceSamples& T = S.samples;
     std::vector<char> comp_in;
-    bool any = r.intersecting;
-    if (!r.intersecting) {
-      comp_in.assign(T.component_rep.size(), 0);
-      for (std::size_t c = 0; c < comp_in.size(); ++c) {
-        if (!lb.contains(T.component_rep[c])) continue;
-        const Vec3 q = inv * T.component_rep[c];
-        if (L.bounds.contains(q) && L.query->signed_distance(q) < 0.0) comp_in[c] = any = true;
-      }
-    }
+    const bool any = r.intersecting || vd::components_inside(
+        T, inv, L.bounds, [&](const Vec3& q) { return L.query->signed_distance(q) < 0.0; }, comp_in);
     if (any) depth = vd::deepest_inside(T, inv, *L.query, L.bounds, comp_in, depth, stop);
   }
   // Link samples inside the scene mesh.
   if (S.query->closed() && depth <= stop) {
     std::vector<char> comp_in;
-    bool any = r.intersecting;
-    if (!r.intersecting) {
-      // No crossing: each connected piece of the link is wholly inside or wholly outside.
-      comp_in.assign(L.samples.component_rep.size(), 0);
-      for (std::size_t c = 0; c < comp_in.size(); ++c) {
-        const Vec3 p = pose * L.samples.component_rep[c];
-        if (S.bounds.contains(p) && S.query->signed_distance(p) < 0.0) comp_in[c] = any = true;
-      }
-    }
+    const bool any = r.intersecting || vd::components_inside(
+        L.samples, pose, S.bounds, [&](const Vec3& p) { return S.query->signed_distance(p) < 0.0; }, comp_in);
     if (any) depth = vd::deepest_inside(L.samples, pose, *S.query, S.bounds, comp_in, depth, stop);
   }
   r.depth = depth;
@@ -351,11 +333,7 @@ vd::PairCheck GraspChecker::Impl::check_pair(int l, const Pose& pose, int s, dou
 bool GraspChecker::Impl::touches_occluded(int l, const Pose& pose) const {
   if (!occluded) return false;
   const vd::LinkModel& L = links[l];
-  const Eigen::AlignedBox3d lb = vd::transform_box(L.bounds, pose);
-  Eigen::AlignedBox3d ob = occluded_bounds;
-  ob.min().array() -= options.contact_gap;
-  ob.max().array() += options.contact_gap;
-  if (!lb.intersects(ob)) return false;
+  if (!vd::boxes_within(vd::transform_box(L.bounds, pose), occluded_bounds, options.contact_gap)) return false;
   fcl::CollisionRequestd creq;
   fcl::CollisionResultd cres;
   fcl::collide(L.fcl.get(), pose, occluded.get(), Pose::Identity(), creq, cres);

@@ -182,11 +182,7 @@ vd::PairCheck GraspChecker::Impl::field_pair(int l, const Pose& pose, int s, dou
   const vd::SceneModel& S = scene[s];
   if (!S.field) return check_pair(l, pose, s, stop);
   vd::PairCheck r;
-  const Eigen::AlignedBox3d lb = vd::transform_box(L.bounds, pose);
-  Eigen::AlignedBox3d sb = S.bounds;
-  sb.min().array() -= options.contact_gap;
-  sb.max().array() += options.contact_gap;
-  if (!lb.intersects(sb)) return r;
+  if (!vd::boxes_within(vd::transform_box(L.bounds, pose), S.bounds, options.contact_gap)) return r;
   r.near = true;
   const DistanceField& F = *S.field;
   auto target_sd = [&](const Vec3& p) { return field_interval(F, p); };
@@ -220,17 +216,9 @@ vd::PairCheck GraspChecker::Impl::field_pair(int l, const Pose& pose, int s, dou
   if (L.query->closed()) {
     const vd::SurfaceSamples& T = S.samples;
     std::vector<char> comp_in;
-    bool any = r.intersecting;
-    if (!r.intersecting) {
-      comp_in.assign(T.component_rep.size(), 0);
-      for (std::size_t c = 0; c < comp_in.size(); ++c) {
-        if (!lb.contains(T.component_rep[c])) continue;
-        const Vec3 q = inv * T.component_rep[c];
-        if (L.bounds.contains(q) &&
-            strictly_inside(L.distance.at(q), L.query->surface_tolerance(), [&] { return L.query->signed_distance(q); }))
-          comp_in[c] = any = true;
-      }
-    }
+    const bool any = r.intersecting || vd::components_inside(T, inv, L.bounds, [&](const Vec3& q) {
+      return strictly_inside(L.distance.at(q), L.query->surface_tolerance(), [&] { return L.query->signed_distance(q); });
+    }, comp_in);
     if (any)
       depth = vd::deepest_bounds(
           T, inv, L.bounds, comp_in, [&](const Vec3& q) { return L.distance.at(q); },
@@ -241,16 +229,9 @@ vd::PairCheck GraspChecker::Impl::field_pair(int l, const Pose& pose, int s, dou
   }
   if (depth.lo <= stop) {
     std::vector<char> comp_in;
-    bool any = r.intersecting;
-    if (!r.intersecting) {
-      comp_in.assign(L.samples.component_rep.size(), 0);
-      for (std::size_t c = 0; c < comp_in.size(); ++c) {
-        const Vec3 p = pose * L.samples.component_rep[c];
-        if (S.bounds.contains(p) &&
-            strictly_inside(target_sd(p), S.query->surface_tolerance(), [&] { return S.query->signed_distance(p); }))
-          comp_in[c] = any = true;
-      }
-    }
+    const bool any = r.intersecting || vd::components_inside(L.samples, pose, S.bounds, [&](const Vec3& p) {
+      return strictly_inside(target_sd(p), S.query->surface_tolerance(), [&] { return S.query->signed_distance(p); });
+    }, comp_in);
     if (any) {
       const vd::DepthBounds d = vd::deepest_bounds(L.samples, pose, S.bounds, comp_in, target_sd, target_exact, stop);
       depth.est = std::max(depth.est, d.est);
@@ -273,11 +254,7 @@ vd::PairCheck GraspChecker::Impl::field_pair(int l, const Pose& pose, int s, dou
 bool GraspChecker::Impl::field_touches_occluded(int l, const Pose& pose) const {
   if (!occluded_field) return touches_occluded(l, pose);
   const vd::LinkModel& L = links[l];
-  const Eigen::AlignedBox3d lb = vd::transform_box(L.bounds, pose);
-  Eigen::AlignedBox3d ob = occluded_bounds;
-  ob.min().array() -= options.contact_gap;
-  ob.max().array() += options.contact_gap;
-  if (!lb.intersects(ob)) return false;
+  if (!vd::boxes_within(vd::transform_box(L.bounds, pose), occluded_bounds, options.contact_gap)) return false;
   const DistanceField& F = *occluded_field;
   const int touch = vd::surface_below(
       moved(L.tris, pose), [&](const Vec3& p) { return field_interval(F, p); }, options.contact_gap,

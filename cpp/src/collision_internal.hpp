@@ -34,6 +34,13 @@ Eigen::AlignedBox3d faces_bounds(const Points& vertices, const Triangles& faces,
 /// Axis-aligned box of `box` moved by `pose`.
 Eigen::AlignedBox3d transform_box(const Eigen::AlignedBox3d& box, const Pose& pose);
 
+/// Whether box `a` comes within `gap` (m) of box `b` (they intersect once `b` is grown by `gap`).
+inline bool boxes_within(const Eigen::AlignedBox3d& a, Eigen::AlignedBox3d b, double gap) {
+  b.min().array() -= gap;
+  b.max().array() += gap;
+  return a.intersects(b);
+}
+
 /// Samples of a surface with the connected component of each, plus a vertex of each component.
 struct SurfaceSamples {
   Points points;                  ///< (S,3) in the mesh's frame
@@ -42,6 +49,21 @@ struct SurfaceSamples {
   Bvh tree;                       ///< tree over the points
 };
 SurfaceSamples make_samples(const Mesh& mesh, double spacing);
+
+/// Flags in `inside` the connected components of `samples` whose representative vertex, mapped
+/// into B's frame by `to_b`, lies in `b_bounds` and passes `is_inside(q)`: where the surfaces do
+/// not cross, a component lies wholly inside B or wholly outside. Returns whether any does.
+template <class IsInside>
+bool components_inside(const SurfaceSamples& samples, const Pose& to_b, const Eigen::AlignedBox3d& b_bounds,
+                       IsInside&& is_inside, std::vector<char>& inside) {
+  inside.assign(samples.component_rep.size(), 0);
+  bool any = false;
+  for (std::size_t c = 0; c < inside.size(); ++c) {
+    const Vec3 q = to_b * samples.component_rep[c];
+    if (b_bounds.contains(q) && is_inside(q)) inside[c] = any = true;
+  }
+  return any;
+}
 
 /// max(known, largest depth (m) of the samples inside the closed mesh of `b` (bounds
 /// `b_bounds`, in B's frame)), the samples mapped into B's frame by `to_b`. When `components` is
