@@ -123,32 +123,40 @@ def box_mesh_file(path, lo, hi):
     return str(path)
 
 
-def _tangents(n_in):
-    # GraspIt's convention as the planner documents it: t1 from the coordinate axis least aligned
-    # with the inward normal (lowest index on ties), projected on the tangent plane; t2 = n x t1.
+def tangent_basis(n_in):
+    """The documented basis, written differently: t1 = n x (e x n) normalised, e the coordinate axis
+    least aligned with n (lowest index on ties); t2 = n x t1."""
     e = np.eye(3)[int(np.argmin(np.abs(n_in)))]
-    t1 = e - (e @ n_in) * n_in
-    t1 /= np.linalg.norm(t1)
+    t1 = np.cross(n_in, np.cross(e, n_in))
+    t1 = t1 / np.linalg.norm(t1)
     return t1, np.cross(n_in, t1)
 
 
-def wrenches(points, normals, center, radius, mu=0.5, edges=8) -> np.ndarray:
-    """(N*edges, 6) friction-pyramid wrenches [f; (p - c) x f / r], f = n_in + mu t_k."""
+def reference_wrenches(P, N, c, r, mu, R, gamma=None, rings=0):
+    """Contact wrenches built one by one from the model's definition (module docstring)."""
     out = []
-    for p, n in zip(np.asarray(points, float), np.asarray(normals, float)):
+    for p, n in zip(np.asarray(P, float), np.asarray(N, float)):
         n_in = -n / np.linalg.norm(n)
-        t1, t2 = _tangents(n_in)
-        for k in range(edges):
-            a = 2 * math.pi * k / edges
-            f = n_in + mu * (math.cos(a) * t1 + math.sin(a) * t2)
-            out.append(np.concatenate([f, np.cross(p - center, f) / radius]))
+        t1, t2 = tangent_basis(n_in)
+        dirs = [(mu * math.cos(2 * math.pi * k / R), mu * math.sin(2 * math.pi * k / R), 0.0)
+                for k in range(R)]
+        if gamma is not None:
+            for j in range(1, rings + 1):
+                phi = (math.pi / 2) * j / (rings + 1)
+                for sign in (1, -1):
+                    dirs += [(a * math.cos(phi), b * math.cos(phi), sign * gamma * math.sin(phi))
+                             for a, b, _ in dirs[:R]]
+            dirs += [(0.0, 0.0, gamma), (0.0, 0.0, -gamma)]
+        for a, b, m in dirs:
+            f = n_in + a * t1 + b * t2
+            out.append(np.concatenate([f, (np.cross(p - c, f) + m * n_in) / r]))
     return np.array(out)
 
 
 def epsilon(points, normals, center, radius, mu=0.5, edges=8) -> float:
     """Ferrari-Canny epsilon of the contacts: the origin's distance to the nearest facet of the
     wrench hull when it lies strictly inside, else 0 (also for a hull that spans fewer than 6 dims)."""
-    w = wrenches(points, normals, center, radius, mu, edges)
+    w = reference_wrenches(points, normals, center, radius, mu, edges)
     if len(w) < 7 or np.linalg.matrix_rank(w, tol=1e-9 * np.abs(w).max()) < 6:
         return 0.0
     try:

@@ -18,41 +18,12 @@ from scipy.optimize import linprog, minimize
 from scipy.spatial import ConvexHull
 
 import pairgrasp as pg
+from independent import reference_wrenches, tangent_basis
 
 ORIGIN = np.zeros(3)
 
 
 # ------------------------------------------------------------------------ independent references
-
-def tangent_basis(n_in):
-    """The documented basis, written differently: t1 = n x (e x n) normalised, e the coordinate axis
-    least aligned with n (lowest index on ties); t2 = n x t1."""
-    e = np.eye(3)[int(np.argmin(np.abs(n_in)))]
-    t1 = np.cross(n_in, np.cross(e, n_in))
-    t1 = t1 / np.linalg.norm(t1)
-    return t1, np.cross(n_in, t1)
-
-
-def reference_wrenches(P, N, c, r, mu, R, gamma=None, rings=0):
-    """Contact wrenches built one by one from the model's definition (module docstring)."""
-    out = []
-    for p, n in zip(np.asarray(P, float), np.asarray(N, float)):
-        n_in = -n / np.linalg.norm(n)
-        t1, t2 = tangent_basis(n_in)
-        dirs = [(mu * math.cos(2 * math.pi * k / R), mu * math.sin(2 * math.pi * k / R), 0.0)
-                for k in range(R)]
-        if gamma is not None:
-            for j in range(1, rings + 1):
-                phi = (math.pi / 2) * j / (rings + 1)
-                for sign in (1, -1):
-                    dirs += [(a * math.cos(phi), b * math.cos(phi), sign * gamma * math.sin(phi))
-                             for a, b, _ in dirs[:R]]
-            dirs += [(0.0, 0.0, gamma), (0.0, 0.0, -gamma)]
-        for a, b, m in dirs:
-            f = n_in + a * t1 + b * t2
-            out.append(np.concatenate([f, (np.cross(p - c, f) + m * n_in) / r]))
-    return np.array(out)
-
 
 def brute_force_hull(W, tol=1e-9):
     """(epsilon, volume) of conv(W) by enumerating every 6 wrenches: a hyperplane {x: u.x = 1}
