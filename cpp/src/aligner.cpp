@@ -6,14 +6,11 @@
 #include <pairgrasp/versor.hpp>
 
 #include "accumulator.hpp"
+#include "thread_pool.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <exception>
-#include <mutex>
 #include <string>
-#include <thread>
 #include <utility>
 
 namespace pairgrasp {
@@ -26,49 +23,11 @@ using Eigen::Vector3d;
 constexpr double kPi = 3.14159265358979323846;
 constexpr std::size_t kChunk = 256;  // correspondences per pass-2 work item (fixed: determinism)
 
-// Runs f(i) for i in [0, n) on up to `threads` threads; rethrows the first exception.
-template <class F>
-void parallel_for(std::size_t n, int threads, F&& f) {
-  const std::size_t workers = std::min<std::size_t>(std::max(threads, 1), n);
-  if (workers <= 1) {
-    for (std::size_t i = 0; i < n; ++i) f(i);
-    return;
-  }
-  std::atomic<std::size_t> next{0};
-  std::exception_ptr error;
-  std::mutex error_mutex;
-  auto work = [&] {
-    for (;;) {
-      const std::size_t i = next.fetch_add(1);
-      if (i >= n) return;
-      try {
-        f(i);
-      } catch (...) {
-        std::lock_guard<std::mutex> lock(error_mutex);
-        if (!error) error = std::current_exception();
-        next.store(n);
-      }
-    }
-  };
-  std::vector<std::thread> pool;
-  pool.reserve(workers - 1);
-  for (std::size_t w = 1; w < workers; ++w) pool.emplace_back(work);
-  work();
-  for (auto& t : pool) t.join();
-  if (error) std::rethrow_exception(error);
-}
-
 // The facet size h used to make variances dimensionless: the index's spacing, or d_max / 10 for
 // an index too small to have one.
 double reference_spacing(const PairIndex& index) {
   const double h = index.spacing();
   return h > 0 && std::isfinite(h) ? h : index.d_max() / 10;
-}
-
-int resolve_threads(int threads) {
-  if (threads > 0) return threads;
-  const unsigned hw = std::thread::hardware_concurrency();
-  return hw ? static_cast<int>(hw) : 1;
 }
 
 struct GripperPair {
@@ -242,7 +201,7 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
       features.push_back(pair_feature(pa, na, pb, nb));
     }
   std::vector<std::vector<std::uint32_t>> hits(gpairs.size());
-  parallel_for(gpairs.size(), threads, [&](std::size_t g) {
+  detail::parallel_for(gpairs.size(), threads, [&](std::size_t g) {
     index.query(features[g], opt.feature_tolerance, hits[g]);
     std::sort(hits[g].begin(), hits[g].end());
   });
@@ -275,7 +234,7 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
   const auto& tpairs = index.pairs();
   const auto& tp = index.points();
   const auto& tn = index.normals();
-  parallel_for(nchunks, threads, [&](std::size_t ch) {
+  detail::parallel_for(nchunks, threads, [&](std::size_t ch) {
     PairPoseResult r;
     auto& out = chunk_votes[ch];
     const std::size_t end = std::min(corr.size(), (ch + 1) * kChunk);
@@ -433,7 +392,7 @@ const AlignerOptions& Aligner::options() const { return options_; }
 const PairIndex& Aligner::index() const { return *index_; }
 
 AlignResult Aligner::align(const Points& points, const Points& normals) const {
-  return align_impl(*index_, options_, points, normals, resolve_threads(options_.threads));
+  return align_impl(*index_, options_, points, normals, detail::resolve_threads(options_.threads));
 }
 
 std::vector<AlignResult> Aligner::align_many(const std::vector<Constellation>& constellations) const {
@@ -445,7 +404,7 @@ std::vector<AlignResult> Aligner::align_many(const std::vector<Constellation>& c
     }
   }
   std::vector<AlignResult> out(constellations.size());
-  parallel_for(constellations.size(), resolve_threads(options_.threads), [&](std::size_t k) {
+  detail::parallel_for(constellations.size(), detail::resolve_threads(options_.threads), [&](std::size_t k) {
     out[k] = align_impl(*index_, options_, constellations[k].points, constellations[k].normals, 1);
   });
   return out;

@@ -296,9 +296,7 @@ void PairIndex::Impl::build_tree(std::vector<Record>& rec, int threads) {
       split(r, mid, e, level + 1);
     };
     if (level < parallel_depth) {
-      std::thread t(left);
-      right();
-      t.join();
+      detail::parallel_for(2, 2, [&](std::size_t k) { k == 0 ? left() : right(); });
     } else {
       left();
       right();

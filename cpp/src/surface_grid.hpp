@@ -1,56 +1,23 @@
 #pragma once
 // Internal helpers of the surface area (unit facets, pair index): a hashed uniform grid over 3-D
-// points and a deterministic chunked parallel-for.
+// points; parallel loops come from the shared pool (thread_pool.hpp).
 #include <Eigen/Core>
+
+#include "thread_pool.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <exception>
-#include <functional>
-#include <thread>
 #include <unordered_map>
 #include <utility>
 #include <vector>
 
 namespace pairgrasp::detail {
 
-/// Number of worker threads for `requested` (0: all cores), never more than `work_items`.
+/// Worker threads for `requested` (0: all cores), never more than `work_items` (at least 1).
 inline int resolve_threads(int requested, std::size_t work_items) {
-  int n = requested > 0 ? requested : static_cast<int>(std::thread::hardware_concurrency());
-  if (n < 1) n = 1;
-  if (work_items < static_cast<std::size_t>(n)) n = static_cast<int>(std::max<std::size_t>(1, work_items));
-  return n;
-}
-
-/// Runs body(begin, end, thread) over [0, n) cut into `threads` contiguous chunks. The chunking
-/// depends only on n and threads; bodies must write disjoint outputs.
-inline void parallel_chunks(std::size_t n, int threads,
-                            const std::function<void(std::size_t, std::size_t, int)>& body) {
-  if (threads <= 1 || n < 2) {
-    body(0, n, 0);
-    return;
-  }
-  std::vector<std::thread> pool;
-  pool.reserve(threads - 1);
-  std::vector<std::exception_ptr> errors(threads);
-  for (int t = 0; t < threads; ++t) {
-    const std::size_t b = n * t / threads, e = n * (t + 1) / threads;
-    auto run = [&, b, e, t] {
-      try {
-        body(b, e, t);
-      } catch (...) {
-        errors[t] = std::current_exception();
-      }
-    };
-    if (t + 1 < threads)
-      pool.emplace_back(run);
-    else
-      run();
-  }
-  for (auto& th : pool) th.join();
-  for (auto& e : errors)
-    if (e) std::rethrow_exception(e);
+  const int n = resolve_threads(requested);
+  return static_cast<int>(std::max<std::size_t>(1, std::min<std::size_t>(static_cast<std::size_t>(n), work_items)));
 }
 
 /// Integer cell coordinates of a uniform grid, packed into 63 bits (21 per axis).

@@ -341,36 +341,4 @@ std::vector<int> vertex_components(const Points& vertices, const Triangles& face
   return comp;
 }
 
-// ------------------------------------------------------------------ threads
-
-int thread_count(int threads) {
-  if (threads > 0) return threads;
-  const unsigned hw = std::thread::hardware_concurrency();
-  return hw > 0 ? static_cast<int>(hw) : 1;
-}
-
-void parallel_for(std::size_t n, int threads, const std::function<void(std::size_t)>& body) {
-  const int t = static_cast<int>(std::min<std::size_t>(thread_count(threads), n));
-  if (t <= 1) {
-    for (std::size_t i = 0; i < n; ++i) body(i);
-    return;
-  }
-  std::vector<std::exception_ptr> errors(t);
-  std::vector<std::thread> pool;
-  pool.reserve(t);
-  for (int w = 0; w < t; ++w) {
-    const std::size_t begin = n * w / t, end = n * (w + 1) / t;
-    pool.emplace_back([&, w, begin, end] {
-      try {
-        for (std::size_t i = begin; i < end; ++i) body(i);
-      } catch (...) {
-        errors[w] = std::current_exception();
-      }
-    });
-  }
-  for (auto& th : pool) th.join();
-  for (auto& e : errors)
-    if (e) std::rethrow_exception(e);  // the lowest chunk's error: deterministic
-}
-
 }  // namespace pairgrasp::validation_detail

@@ -3,6 +3,8 @@
 // builder, surface sampling and a deterministic parallel loop. Not part of the public API.
 #include <pairgrasp/types.hpp>
 
+#include "thread_pool.hpp"
+
 #include <Eigen/Geometry>
 
 #include <cstdint>
@@ -103,12 +105,7 @@ std::vector<int> vertex_components(const Points& vertices, const Triangles& face
 
 // ------------------------------------------------------------------ threads
 
-/// Number of worker threads for a request: `threads` > 0 as given, else the hardware count.
-int thread_count(int threads);
-
-/// Runs body(i) for i in [0, n) on up to `threads` threads (0: all cores), in contiguous
-/// chunks. Results must be written per index, so they do not depend on the thread count.
-/// The first exception thrown by a body is rethrown after all threads have stopped.
-void parallel_for(std::size_t n, int threads, const std::function<void(std::size_t)>& body);
+/// Parallel loops run on the library's one pool (thread_pool.hpp).
+using detail::parallel_for;  // the shared pool (thread_pool.hpp)
 
 }  // namespace pairgrasp::validation_detail
