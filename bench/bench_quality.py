@@ -4,9 +4,9 @@
     python bench/bench_quality.py --targets box --json out/bench_quality.json
 
 The contact sets are those a real plan evaluates: the Barrett hand is planned on bundled targets
-with ``pg.Planner`` while every call the planner makes to ``grasp_quality`` is recorded (the
-contacts, reduced per link while searching, and every contact of the final grasps). Then, on the
-same contact sets and for each in turn:
+with ``pg.Planner``, and the contacts of every candidate its C++ pipeline evaluated are read back
+(reduced per link as the search scores them, ``pg.reduce_contacts``), with every contact of the
+returned grasps. Then, on the same contact sets and for each in turn:
 
 * C++: ``pg.grasp_quality`` with the planner's arguments (wrenches, reductions, rank test, hull,
   epsilon; Python argument checks included);
@@ -32,7 +32,6 @@ import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
 import pairgrasp as pg
-import pairgrasp.grasp as pg_grasp
 import pairgrasp.planner as pg_planner
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -41,26 +40,37 @@ BARRETT = os.path.join(ROOT, "models", "barrett", "barrett.json")
 
 def collect(target: str, seed: int, step: float):
     """The contact sets (kwargs of grasp_quality) that one plan of `target` evaluates."""
-    calls = []
-    original = pg.grasp_quality
+    pipes = []
+    make = pg_planner._core.CandidatePipeline
 
-    def recording(points, normals, center, radius, **kw):
-        calls.append(dict(points=np.array(points, float), normals=np.array(normals, float),
-                          center=np.array(center, float), radius=float(radius), **kw))
-        return original(points, normals, center, radius, **kw)
+    def recording(*args, **kw):
+        pipes.append(make(*args, **kw))
+        return pipes[-1]
 
     mesh = os.path.join(ROOT, "models", "targets", f"{target}.stl")
     paint = os.path.join(ROOT, "models", "targets", f"{target}.paint.json")
     planner = pg.Planner(BARRETT, mesh, paint=paint if os.path.exists(paint) else None, seed=seed)
-    saved = pg_grasp.grasp_quality, pg_planner.grasp_quality
-    pg_grasp.grasp_quality = pg_planner.grasp_quality = recording
+    pg_planner._core.CandidatePipeline = recording
     try:
         t0 = time.perf_counter()
-        planner.plan(schedule="fast", step=step, progress=None)
+        result = planner.plan(schedule="fast", step=step, progress=None)
         plan_s = time.perf_counter() - t0
     finally:
-        pg_grasp.grasp_quality, pg_planner.grasp_quality = saved
-    return [c for c in calls if len(c["points"])], plan_s
+        pg_planner._core.CandidatePipeline = make
+    p = result.params
+    common = dict(center=np.array(planner.center, float), radius=float(planner.radius), mu=p.mu, edges=p.edges)
+    calls = []
+    for c in pipes[-1].evaluated():
+        e = c.evaluation
+        if e.pruned or not e.n_contacts:
+            continue
+        k = pg.reduce_contacts(e.contact_points, e.contact_links, p.contacts_per_link)
+        calls.append(dict(points=np.array(e.contact_points)[k], normals=np.array(e.contact_normals)[k],
+                          open_volume=False, **common))
+    for g in result.grasps:
+        if len(g.contact_points):
+            calls.append(dict(points=np.array(g.contact_points), normals=np.array(g.contact_normals), **common))
+    return calls, plan_s
 
 
 def scipy_epsilon(w: np.ndarray) -> float:

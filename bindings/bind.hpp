@@ -5,6 +5,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <pairgrasp/collision.hpp>
 #include <pairgrasp/types.hpp>
 
 #include <algorithm>
@@ -73,6 +74,23 @@ inline Eigen::VectorXd vector_from(const pyb::handle& obj, const std::string& na
   std::copy(a.data(), a.data() + a.size(), v.data());
   return v;
 }
+/// A rigid pose from 16 row-major doubles; std::invalid_argument("<name>: ...") unless rigid.
+inline Pose pose_from_data(const double* d, const std::string& name) {
+  Pose p;
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) p.matrix()(i, j) = d[4 * i + j];
+  check_rigid(p, name.c_str());
+  return p;
+}
+
+/// A rigid pose from a 4x4 array.
+inline Pose pose_from(const pyb::handle& obj, const std::string& name) {
+  const DoubleArray a = as_double_array(obj, name);
+  if (a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)
+    throw std::invalid_argument(name + ": expected a 4x4 array, got shape " + shape_of(a));
+  return pose_from_data(a.data(), name);
+}
+
 void bind_errors(pyb::module_& m);     // bind_errors.cpp: FileError -> pairgrasp.FileError(RuntimeError)
 void bind_mesh(pyb::module_& m);       // bind_mesh.cpp: Mesh, load_mesh, make_mesh
 void bind_hand(pyb::module_& m);       // bind_hand.cpp: Hand, load_hand, Constellation
@@ -81,4 +99,5 @@ void bind_surface(pyb::module_& m);    // bind_surface.cpp: tessellate, UnitFace
 void bind_alignment(pyb::module_& m);  // bind_alignment.cpp: solve_pair_pose, Aligner
 void bind_validation(pyb::module_& m); // bind_validation.cpp: SurfaceQuery, occluded_by, visible_from, GraspChecker
 void bind_quality(pyb::module_& m);    // bind_quality.cpp: contact wrenches, grasp quality (epsilon)
+void bind_candidates(pyb::module_& m); // bind_candidates.cpp: evaluate_grasp, fine_tune, CandidatePipeline
 }  // namespace pairgrasp::py

@@ -24,23 +24,6 @@ using namespace pybind11::literals;
 
 
 
-Pose pose_from_data(const double* d, const std::string& name) {
-  Eigen::Matrix4d m;
-  for (int i = 0; i < 4; ++i)
-    for (int j = 0; j < 4; ++j) m(i, j) = d[4 * i + j];
-  Pose p;
-  p.matrix() = m;
-  check_rigid(p, name.c_str());
-  return p;
-}
-
-Pose pose_from(const pyb::handle& obj, const std::string& name) {
-  const DoubleArray a = as_double_array(obj, name);
-  if (a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)
-    throw std::invalid_argument(name + ": expected a 4x4 array, got shape " + shape_of(a));
-  return pose_from_data(a.data(), name);
-}
-
 std::optional<Mask> mask_from(const pyb::handle& obj, const std::string& name) {
   if (obj.is_none()) return std::nullopt;
   pyb::array a = pyb::module_::import("numpy").attr("asarray")(obj);

@@ -362,6 +362,19 @@ double GraspChecker::Impl::link_distance(int l, const Pose& pose, bool active) c
   return best;
 }
 
+GraspChecker::Impl::LinkState GraspChecker::Impl::link_state(int l, const Pose& pose) const {
+  LinkState out;
+  for (std::size_t s = 0; s < scene.size(); ++s) {
+    const bool obstacle = scene[s].obstacle;
+    const vd::PairCheck pc = pair(l, pose, static_cast<int>(s), obstacle ? 0.0 : options.depth_tolerance);
+    if (!pc.intersecting && !pc.inside) continue;
+    out.depth = std::max(out.depth, pc.depth);
+    out.bad = out.bad || obstacle || pc.depth > options.depth_tolerance;
+  }
+  if (!out.bad) out.bad = options.use_distance_field ? field_touches_occluded(l, pose) : touches_occluded(l, pose);
+  return out;
+}
+
 std::vector<Pose> GraspChecker::Impl::target_frame_poses(const Pose& wrist, const Eigen::VectorXd& dofs) const {
   check_rigid(wrist, "wrist");
   std::vector<Pose> poses = hand.link_poses(dofs);

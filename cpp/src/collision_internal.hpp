@@ -217,6 +217,15 @@ struct GraspChecker::Impl {
   /// Builds the distance fields (target, occluded faces, non-convex links).
   void build_fields();
   double field_seconds = 0.0;
+  /// What one link at `pose` (target frame) does, without strings: `bad` when it penetrates the
+  /// target beyond the tolerance, intersects or lies inside an obstacle, or touches occluded faces
+  /// (exactly the links that make check() prune); `depth` its deepest penetration into anything,
+  /// searched as check() with exact_depth false (a lower bound beyond the tolerance).
+  struct LinkState {
+    bool bad = false;
+    double depth = 0.0;
+  };
+  LinkState link_state(int l, const Pose& pose) const;
   /// Full check at link poses already in the target frame (depths exact unless `exact_depth` is
   /// false: see GraspChecker::check).
   CheckResult check_poses(const std::vector<Pose>& poses, bool exact_depth = true) const;

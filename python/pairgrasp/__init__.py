@@ -8,7 +8,6 @@ from ._core import FileError, version  # noqa: F401
 
 __version__ = version()
 from .quality import GraspQuality, contact_frames, epsilon_upper_bound, grasp_quality, wrench_matrix  # noqa: F401,E402
-from .grasp import FineTuneResult, GraspEvaluation, evaluate_grasp, fine_tune, reduce_contacts, torque_reference  # noqa: F401,E402
 from .planner import Candidate, Grasp, PlanParams, PlanResult, Planner, dof_grid  # noqa: F401,E402
 from .checks import InputWarning  # noqa: F401,E402
 from .grasps_file import GRASPS_FORMAT, GraspsFile, load_grasps, parse_grasps, write_grasps  # noqa: F401,E402

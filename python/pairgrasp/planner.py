@@ -62,7 +62,6 @@ import numbers
 import os
 import sys
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Dict, List, Optional, Sequence, Tuple
 
@@ -70,8 +69,6 @@ import numpy as np
 
 from . import _core
 from .checks import check_target_scale, warn_if_open
-from .grasp import evaluate_grasp, fine_tune, torque_reference
-from .quality import grasp_quality
 
 __all__ = ["PlanParams", "Grasp", "Candidate", "PlanResult", "Planner", "dof_grid"]
 
@@ -395,23 +392,18 @@ class _Progress:
 
 @dataclass
 class _Cand:
+    """An aligned pose waiting for the candidate pipeline (a deepening pose of a coarse sample)."""
     sample: int
     q: np.ndarray
     pose: np.ndarray
     quality: float
     votes: int
     rank: int = 0
-    start_pose: Optional[np.ndarray] = None
-    start_dofs: Optional[np.ndarray] = None
-    backoff: float = 0.0
-    search: Optional[list] = None
-    settled: str = ""
-    evaluation: object = None
-    time: float = 0.0
 
 
-def _rank_key(c: _Cand) -> tuple:
-    """The ranking of evaluated candidates, best last: not pruned, force closure, epsilon, Q_A, votes."""
+def _rank_key(c) -> tuple:
+    """The ranking of evaluated candidates (``pairgrasp.EvaluatedCandidate``), best last: not
+    pruned, force closure, epsilon, Q_A, votes."""
     e = c.evaluation
     return (not e.pruned, bool(e.force_closure), float(e.epsilon), c.quality, c.votes)
 
@@ -475,7 +467,7 @@ class Planner:
         if obstacles:
             self.inputs["obstacles"] = [os.fspath(o) if not isinstance(o, _core.Mesh) else "<mesh>" for o in obstacles]
         self.inputs["free_faces"] = int(free.sum())
-        self.center, self.radius = torque_reference(self.target)
+        self.center, self.radius = _core.torque_reference(self.target)
 
         self.mode = self._constellation_mode()
         lo = np.asarray(self.hand.dof_lower, float)
@@ -508,8 +500,6 @@ class Planner:
                                           depth_tolerance=depth_tol, gap=p.gap, threads=p.threads)
         reach = self._reach(lo, hi)
         self.backoff = float(p.backoff) if p.backoff is not None else reach / 2.0
-        self.approach = np.asarray(self.hand.approach, float).reshape(3)
-        self.fixed_links, self.dof_links = self._link_groups()
         self.setup_time = time.perf_counter() - t0
 
     # ---------------------------------------------------------------- set-up helpers
@@ -653,9 +643,12 @@ class Planner:
         aligner = self.aligner if most_poses <= self.aligner.max_poses else self._aligner(most_poses)
 
         samples: List[np.ndarray] = []
-        cands: List[_Cand] = []
-        seen: set = set()
+        cands: list = []  # pairgrasp.EvaluatedCandidate, in evaluation order
         stage_t = {"schedule": 0.0, "align": 0.0, "settle": 0.0, "evaluate": 0.0}
+        pipe = _core.CandidatePipeline(
+            self.checker, edge=self.edge, backoff=self.backoff, steps=steps, center=self.center, radius=self.radius,
+            mu=p.mu, edges=p.edges, contacts_per_link=p.contacts_per_link,
+            max_evaluations=-1 if p.max_evaluations is None else p.max_evaluations, threads=p.threads)
 
         best_fraction = [None]
 
@@ -664,17 +657,20 @@ class Planner:
 
         quiet = _Progress(False)
 
-        def process(new: List[_Cand]) -> List[_Cand]:
-            """Settles and evaluates aligned candidates; returns the evaluated ones."""
+        def process(new: List[_Cand]) -> list:
+            """Settles and evaluates aligned candidates in C++ (one call per chunk); returns the
+            evaluated ones."""
+            if not new:
+                return []
             t = time.perf_counter()
-            settled = self._settle(new, quiet)
-            counts["settled"] += len(settled)
-            counts["settled_aligned"] += sum(c.settled == "aligned" for c in settled)
-            stage_t["settle"] += time.perf_counter() - t
-            t = time.perf_counter()
-            ev = self._evaluate(settled, len(cands), seen, p, quiet, start)
-            counts["evaluated"] += len(ev)
-            stage_t["evaluate"] += time.perf_counter() - t
+            rep = pipe.process(np.array([c.pose for c in new]), np.array([c.q for c in new]),
+                               [c.sample for c in new], [c.quality for c in new], [c.votes for c in new])
+            counts["settled"] += rep["settled"]
+            counts["settled_aligned"] += rep["settled_aligned"]
+            counts["evaluated"] += rep["evaluated"]
+            stage_t["settle"] += rep["settle_seconds"]
+            stage_t["evaluate"] += time.perf_counter() - t - rep["settle_seconds"]
+            ev = pipe.evaluated(len(cands))
             cands.extend(ev)
             return ev
 
@@ -699,7 +695,7 @@ class Planner:
             stage_t["schedule"] += time.perf_counter() - t
             # Align, settle and evaluate a chunk of samples at a time, so that grasps come out early
             # and a time limit stops the search between chunks.
-            done: List[_Cand] = []
+            done: list = []
             bar.start(label, len(kept))
             for b in range(0, len(kept), p.chunk):
                 if out_of_time():
@@ -780,13 +776,13 @@ class Planner:
         timings.update(stage_t)
 
         t = time.perf_counter()
-        grasps = self._rank_and_tune(cands, p, bar, out_of_time)
+        grasps = self._grasps(pipe, cands, p, start)
         timings["fine_tune"] = time.perf_counter() - t
         counts["force_closure"] = sum(1 for c in cands if c.evaluation.force_closure)
         timings["total"] = sum(timings.values())
         records = [Candidate(sample=c.sample, alignment_quality=c.quality, votes=c.votes,
                              epsilon=float(c.evaluation.epsilon), force_closure=bool(c.evaluation.force_closure),
-                             settled=c.settled, time=c.time) for c in cands]
+                             settled=c.settled, time=c.seconds) for c in cands]
         return PlanResult(grasps=grasps, candidates=records, timings=timings, counts=counts, edge=self.edge,
                           d_max=self.d_max, constellation=self.mode, spacing=self.spacing, params=p,
                           inputs=dict(self.inputs))
@@ -812,298 +808,24 @@ class Planner:
         bar.finish()
         return out
 
-    def _open_dofs(self, q) -> np.ndarray:
-        """``q`` with its closing DOFs at their open limit."""
-        dirs = np.asarray(_core.closing_directions(self.hand, q)).reshape(-1)
-        out = np.array(q, float)
-        out[dirs > 0] = np.asarray(self.hand.dof_lower, float)[dirs > 0]
-        out[dirs < 0] = np.asarray(self.hand.dof_upper, float)[dirs < 0]
-        return out
-
     def _aligner(self, max_poses: int):
         """An aligner over the target index returning ``max_poses`` poses at most (the best ``k``
         poses do not depend on ``max_poses >= k``)."""
         return _core.Aligner(self.tindex.index, max_poses=max_poses, threads=self.params.threads)
 
-    def _link_groups(self) -> Tuple[np.ndarray, List[np.ndarray]]:
-        """Which links each DOF moves (by forward kinematics at mid-range): (links no DOF's closing
-        moves, [links moved by DOF d for each d])."""
-        lo = np.asarray(self.hand.dof_lower, float)
-        hi = np.asarray(self.hand.dof_upper, float)
-        mid = (lo + hi) / 2.0
-        base = np.asarray(self.hand.link_poses(mid, clamp=True))
-        moved = []
-        for d in range(len(mid)):
-            q = mid.copy()
-            q[d] = mid[d] + 0.25 * (hi[d] - lo[d]) if hi[d] > lo[d] else mid[d]
-            T = np.asarray(self.hand.link_poses(q, clamp=True))
-            moved.append(np.abs(T - base).reshape(len(base), -1).max(axis=1) > 1e-12)
-        dirs = np.asarray(_core.closing_directions(self.hand, mid)).reshape(-1)
-        fixed = np.ones(len(base), bool)
-        for d, m in enumerate(moved):
-            if dirs[d] != 0:
-                fixed &= ~m
-        return fixed, moved
-
-    def _bad_links(self, r) -> np.ndarray:
-        """Per link (Hand.links order): it penetrates beyond the tolerance, touches an occluded face
-        or touches an obstacle."""
-        return np.array([l.depth > self.depth_tolerance or l.touches_occluded
-                         or any(w != "target" for w in l.colliding_with) for l in r.links], bool)
-
-    def _palm_bad(self, r) -> bool:
-        """The links no closing DOF moves are bad (see :meth:`_bad_links`)."""
-        return bool(self._bad_links(r)[self.fixed_links].any())
-
-    def _palm_depth(self, r) -> float:
-        """Deepest penetration of the links no closing DOF moves (m)."""
-        return max([l.depth for l, f in zip(r.links, self.fixed_links) if f], default=0.0)
-
-    def _settle(self, cands: List[_Cand], bar) -> List[_Cand]:
-        """Moves each aligned pose out of penetration with the least change (see the module notes):
-
-        1. kept as aligned when it does not penetrate;
-        2. else *adjusted*: the wrist backs off along the approach axis until the links that no
-           closing DOF moves (palm, knuckles) are clear, then each finger that still penetrates opens
-           just enough (bisection to a quarter of its step), keeping the aligned finger shape
-           elsewhere.
-        A candidate that does not clear so within the largest back-off is dropped. (Opening every
-        finger fully and backing off until the whole hand is clear, as GraspIt's approach does, was
-        measured as a further fallback: on the bundled targets with the Barrett hand it cost a
-        quarter of the settling checks and gave no force-closure grasp.)"""
-        if not cands:
-            return []
-        bar.start("settle", len(cands))
-        poses = np.array([c.pose for c in cands])
-        dofs = np.array([c.q for c in cands])
-        first = self.checker.check_many(poses, dofs, exact_depth=False)
-        active = []
-        for c, r in zip(cands, first):
-            if not r.pruned:
-                c.start_pose, c.start_dofs, c.settled = c.pose, c.q, "aligned"
-            else:
-                c.start_dofs = c.q
-                active.append((c, r))
-        # 2a. back off until the palm group is clear (a candidate whose palm group is already clear
-        #     stays where it is).
-        need = []
-        for c, r in active:
-            if self._palm_bad(r):
-                need.append((c, self._palm_depth(r)))
-            else:
-                c.backoff, c.start_pose = 0.0, c.pose
-        failed = {id(c) for c, _ in self._back_off(need, self._palm_bad, self._palm_depth)}
-        # 2b. open the fingers that still penetrate, each just enough.
-        todo = [c for c, _ in active if id(c) not in failed]
-        for c in todo:
-            c.settled = ""
-        self._open_fingers(todo)
-        bar.advance(len(cands))
-        bar.finish()
-        return [c for c in cands if c.settled]
-
-    def _open_fingers(self, cands: List[_Cand]) -> None:
-        """At each candidate's start pose, opens every closing DOF whose links are bad by bisection
-        between its aligned value and its open limit (to a quarter of its step); all candidates and
-        DOFs in one batch per round. A candidate that clears gets ``settled = "adjusted"``."""
-        if not cands:
-            return
-        steps = self.steps()
-        opened = [self._open_dofs(c.q) for c in cands]
-        # Round 0: the aligned DOFs at the start pose; then the bad DOFs fully open.
-        res = self.checker.check_many(np.array([c.start_pose for c in cands]), np.array([c.start_dofs for c in cands]),
-                                       exact_depth=False)
-        state = []
-        for c, op, r in zip(cands, opened, res):
-            if not r.pruned:
-                c.settled = "adjusted"
-                continue
-            bad = self._bad_links(r)
-            dofs_bad = np.array([bool((bad & m).any()) and op[d] != c.q[d] for d, m in enumerate(self.dof_links)])
-            if bad[self.fixed_links].any() or not dofs_bad.any():
-                continue
-            hi = c.start_dofs.copy()
-            hi[dofs_bad] = op[dofs_bad]
-            state.append([c, dofs_bad, c.start_dofs.copy(), hi])
-        if state:
-            res = self.checker.check_many(np.array([s[0].start_pose for s in state]), np.array([s[3] for s in state]),
-                                           exact_depth=False)
-            # Dropped: even fully open, a finger (or the palm group) is bad.
-            state = [st for st, r in zip(state, res) if not r.pruned]
-        while state:
-            mids = []
-            for c, dofs_bad, lo, hi in state:
-                m = hi.copy()
-                m[dofs_bad] = (lo[dofs_bad] + hi[dofs_bad]) / 2.0
-                mids.append(m)
-            res = self.checker.check_many(np.array([s[0].start_pose for s in state]), np.array(mids), exact_depth=False)
-            nxt = []
-            for (c, dofs_bad, lo, hi), m, r in zip(state, mids, res):
-                bad = self._bad_links(r)
-                for d in np.flatnonzero(dofs_bad):
-                    if (bad & self.dof_links[d]).any():
-                        lo[d] = m[d]
-                    else:
-                        hi[d] = m[d]
-                done = np.abs(hi - lo)[dofs_bad] <= np.maximum(steps[dofs_bad], 1e-9) / 4.0
-                if done.all():
-                    c.start_dofs = hi
-                    c.settled = "adjusted"
-                else:
-                    nxt.append((c, dofs_bad, lo, hi))
-            state = nxt
-
-    def _back_off(self, active, bad, depth):
-        """Exponential search along the approach axis (each pruned distance at least doubles, or grows
-        by the reported depth), then bisection down to h/2 between the last pruned and the first
-        clear distance: ~log2(backoff/h) checks for a candidate that never clears. Returns the
-        candidates that did not clear, with their depth at the aligned pose.
-
-        While backing off the hand moves rigidly (its DOFs fixed), and a point's penetration depth
-        (its distance to the surface it is inside) shrinks by at most the distance the point moves.
-        So a hand pruned at distance d with depth D stays pruned up to d + D - depth_tolerance: the
-        search gives up at once when that reaches the largest back-off.
-
-        ``bad(result)`` says whether a check counts as still penetrating and ``depth(result)``
-        bounds the depth of what is bad; a candidate that clears gets ``settled = "adjusted"``."""
-        resolution = self.edge / 2.0
-        failed = []
-        state = []
-        for c, depth0 in active:
-            c.search = [0.0, None]
-            c.backoff = min(max(depth0, self.edge / 2.0) + self.edge / 4.0, self.backoff)
-            state.append((c, depth0))
-        while state:
-            poses = np.array([self._backed(c.pose, c.backoff) for c, _ in state])
-            res = self.checker.check_many(poses, np.array([c.start_dofs for c, _ in state]), exact_depth=False)
-            nxt = []
-            for (c, depth0), pose, r in zip(state, poses, res):
-                lo, hi = c.search
-                d = c.backoff
-                if bad(r):
-                    lo = d
-                    if hi is None:
-                        dep = float(depth(r))
-                        if d >= self.backoff - 1e-12 or d + dep - self.depth_tolerance >= self.backoff:
-                            failed.append((c, depth0))  # never clears within the back-off
-                            continue
-                        d = min(max(2.0 * d, d + dep + self.edge / 4.0), self.backoff)
-                else:
-                    hi = d
-                    c.settled = "adjusted"
-                c.search = [lo, hi]
-                if hi is not None:
-                    if hi - lo <= resolution:
-                        c.backoff = hi
-                        c.start_pose = self._backed(c.pose, hi)
-                        continue
-                    d = (lo + hi) / 2.0
-                c.backoff = d
-                nxt.append((c, depth0))
-            state = nxt
-        for c, _ in failed:
-            c.backoff = 0.0
-        return failed
-
-    def _backed(self, pose, distance) -> np.ndarray:
-        out = pose.copy()
-        out[:3, 3] -= distance * (pose[:3, :3] @ self.approach)
-        return out
-
-    def _dedupe_key(self, c: _Cand, steps) -> tuple:
-        T = c.start_pose
-        pos = tuple(np.floor(T[:3, 3] / self.edge + 0.5).astype(int))
-        ang = 0.05  # ~3 degrees on the unit axes
-        rot = tuple(np.floor(T[:3, :2].T.reshape(-1) / ang + 0.5).astype(int))
-        half = np.where(steps > 0, steps / 2.0, 1.0)
-        dof = tuple(np.floor(c.start_dofs / half + 0.5).astype(int))
-        return pos + rot + dof
-
-    def _evaluate(self, settled: List[_Cand], n_before: int, seen: set, p, bar, start: float) -> List[_Cand]:
-        steps = self.steps(p.step)
-        order = sorted(range(len(settled)), key=lambda k: (-settled[k].quality, k))
-        todo = []
-        for k in order:
-            c = settled[k]
-            key = self._dedupe_key(c, steps)
-            if key in seen:
-                continue
-            seen.add(key)
-            todo.append(c)
-        if p.max_evaluations is not None:
-            room = p.max_evaluations - n_before
-            todo = todo[: max(room, 0)]
-        bar.start("evaluate", len(todo))
-
-        def one(c):
-            ev = evaluate_grasp(self.checker, c.start_pose, c.start_dofs, center=self.center, radius=self.radius,
-                                mu=p.mu, edges=p.edges, contacts_per_link=p.contacts_per_link)
-            c.time = time.perf_counter() - start
-            return ev
-
-        workers = p.threads or (os.cpu_count() or 1)
-        with ThreadPoolExecutor(max_workers=workers) as pool:
-            for c, ev in zip(todo, pool.map(one, todo)):
-                c.evaluation = ev
-                bar.advance()
-        bar.finish()
-        return todo
-
-    def _rank_and_tune(self, cands: List[_Cand], p, bar, out_of_time) -> List[Grasp]:
-        kept = [c for c in cands if not c.evaluation.pruned]
-        kept.sort(key=_rank_key, reverse=True)
-        steps = self.steps(p.step)
-        tuned = []
-        n_tune = min(p.fine_tune, len(kept))
-        bar.start("fine-tune", n_tune)
-        for k, c in enumerate(kept[:n_tune]):
-            if out_of_time():
-                break
-            ft = fine_tune(self.checker, c.start_pose, c.start_dofs, step=steps, facet_size=self.edge,
-                           iterations=p.fine_tune_iterations, seed=p.seed + k, center=self.center,
-                           radius=self.radius, mu=p.mu, edges=p.edges, contacts_per_link=p.contacts_per_link)
-            ev = ft.best if ft.best is not None else c.evaluation
-            tuned.append((c, ev, bool(ft.improved)))
-            bar.advance()
-        bar.finish()
-        tuned += [(c, c.evaluation, False) for c in kept[len(tuned):]]
-        tuned.sort(key=lambda t: (bool(t[1].force_closure), float(t[1].epsilon), t[0].quality, t[0].votes),
-                   reverse=True)
-        chosen = []
-        seen = set()
-        for c, ev, improved in tuned:
-            sig = (tuple(np.round(ev.wrist_pose[:3, 3] / self.edge).astype(int)),
-                   tuple(np.round(ev.dofs / np.where(steps > 0, steps / 2, 1.0)).astype(int)))
-            if sig in seen:
-                continue
-            seen.add(sig)
-            chosen.append((c, ev, improved))
-            if len(chosen) >= p.top:
-                break
-
-        def full(item):
-            ev = item[1]
-            if p.contacts_per_link is None or not len(ev.contact_points):
-                return ev.epsilon, ev.volume, ev.force_closure
-            gq = grasp_quality(ev.contact_points, ev.contact_normals, self.center, self.radius, mu=p.mu,
-                               edges=p.edges)
-            return float(gq.epsilon), float(gq.volume), bool(gq.force_closure)
-
-        workers = p.threads or (os.cpu_count() or 1)
-        with ThreadPoolExecutor(max_workers=workers) as pool:
-            scores = list(pool.map(full, chosen))
-        order = sorted(range(len(chosen)), key=lambda i: (scores[i][2], scores[i][0], chosen[i][0].quality,
-                                                          chosen[i][0].votes, -i), reverse=True)
+    def _grasps(self, pipe, cands, p, start) -> List[Grasp]:
+        """Ranks, fine-tunes and returns the grasps (CandidatePipeline.finish), with the records of
+        the candidates they came from."""
+        time_left = None if p.time_limit is None else p.time_limit - (time.perf_counter() - start)
         grasps: List[Grasp] = []
-        for i in order:
-            c, ev, improved = chosen[i]
-            eps, vol, fc = scores[i]
-            joints = {k: float(v) for k, v in self.hand.joint_values(ev.dofs, clamp=True).items()}
+        for g in pipe.finish(p.top, p.fine_tune, p.fine_tune_iterations, p.seed, time_left):
+            c, ev = cands[g.candidate], g.evaluation
+            joints = {k: float(v) for k, v in self.hand.joint_values(np.asarray(ev.dofs), clamp=True).items()}
             grasps.append(Grasp(
                 rank=len(grasps) + 1, wrist_pose=np.array(ev.wrist_pose), dofs=np.array(ev.dofs), joints=joints,
-                epsilon=eps, volume=vol, force_closure=fc,
-                alignment_quality=c.quality, votes=c.votes, penetration_depth=float(ev.depth),
+                epsilon=float(g.epsilon), volume=float(g.volume), force_closure=bool(g.force_closure),
+                alignment_quality=float(c.quality), votes=int(c.votes), penetration_depth=float(ev.depth),
                 contact_points=np.array(ev.contact_points), contact_normals=np.array(ev.contact_normals),
-                contact_links=tuple(ev.contact_links), sample=c.q.copy(), aligned_pose=c.pose.copy(),
-                backoff=float(c.backoff), fine_tuned=improved))
+                contact_links=tuple(ev.contact_links), sample=np.array(c.dofs), aligned_pose=np.array(c.pose),
+                backoff=float(c.backoff), fine_tuned=bool(g.fine_tuned)))
         return grasps

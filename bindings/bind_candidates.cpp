@@ -1,0 +1,378 @@
+// The candidate pipeline: evaluate_grasp, fine_tune, reduce_contacts, torque_reference and the
+// batched CandidatePipeline (settle, deduplicate, evaluate, rank and fine-tune) the Planner drives.
+#include "bind.hpp"
+
+#include <pairgrasp/candidates.hpp>
+#include <pairgrasp/evaluation.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace pairgrasp::py {
+
+namespace {
+
+using namespace pybind11::literals;
+
+std::optional<double> real_arg(const pyb::object& v, const char* name, bool allow_zero) {
+  if (v.is_none()) return std::nullopt;
+  if (pyb::isinstance<pyb::bool_>(v) || !(pyb::isinstance<pyb::float_>(v) || pyb::isinstance<pyb::int_>(v) ||
+                                          pyb::hasattr(v, "__float__")))
+    throw std::invalid_argument(std::string(name) + ": expected a real number, got " + std::string(pyb::repr(v)));
+  const double x = v.cast<double>();
+  if (!std::isfinite(x) || x < 0.0 || (!allow_zero && x == 0.0))
+    throw std::invalid_argument(std::string(name) + ": expected a finite value " + (allow_zero ? ">= 0" : "> 0") +
+                                ", got " + std::to_string(x));
+  return x;
+}
+
+int count_arg(const pyb::object& v, const char* name, int low) {
+  if (pyb::isinstance<pyb::bool_>(v) || !pyb::isinstance<pyb::int_>(v) || v.cast<long long>() < low)
+    throw std::invalid_argument(std::string(name) + ": expected an integer >= " + std::to_string(low) + ", got " +
+                                std::string(pyb::repr(v)));
+  return v.cast<int>();
+}
+
+Eigen::VectorXd dofs_arg(const pyb::object& v, const Hand& hand) {
+  Eigen::VectorXd q = vector_from(v, "dofs");
+  if (q.size() != static_cast<Eigen::Index>(hand.dofs().size()))
+    throw std::invalid_argument("dofs: expected " + std::to_string(hand.dofs().size()) + " values, got " +
+                                std::to_string(q.size()));
+  return q;
+}
+
+// The scoring options from the keyword arguments shared by evaluate_grasp and fine_tune.
+EvaluateOptions evaluate_options(const pyb::object& center, const pyb::object& radius, double mu, int edges,
+                                 bool soft, std::optional<double> torsion, const pyb::object& contacts_per_link,
+                                 const GraspChecker& checker) {
+  EvaluateOptions o;
+  o.quality.contact.mu = mu;
+  o.quality.contact.edges = edges;
+  o.quality.contact.soft = soft;
+  o.quality.contact.torsion = torsion;
+  if (!center.is_none() || !radius.is_none()) {
+    TorqueReference ref = center.is_none() || radius.is_none() ? torque_reference(checker.target()) : TorqueReference();
+    if (!center.is_none()) {
+      const Eigen::VectorXd c = vector_from(center, "center");
+      if (c.size() != 3) throw std::invalid_argument("center: expected 3 values, got " + std::to_string(c.size()));
+      ref.center = c;
+    }
+    if (!radius.is_none()) ref.radius = radius.cast<double>();
+    o.reference = ref;
+  }
+  o.contacts_per_link = contacts_per_link.is_none() ? 0 : count_arg(contacts_per_link, "contacts_per_link", 1);
+  return o;
+}
+
+pyb::tuple names_of(const GraspEvaluation& e) {
+  pyb::tuple t(e.contacts.link_names.size());
+  for (std::size_t i = 0; i < e.contacts.link_names.size(); ++i) t[i] = e.contacts.link_names[i];
+  return t;
+}
+
+pyb::array_t<double> pose_array(const Pose& p) {
+  pyb::array_t<double> a({4, 4});
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) a.mutable_at(i, j) = p.matrix()(i, j);
+  a.attr("setflags")("write"_a = false);
+  return a;
+}
+
+const char* const kEvaluateDoc =
+    "Close, check and score one grasp: close the closing DOFs onto contact (close=False: evaluate `dofs` as "
+    "given), check penetration and pruning at the closed DOFs, find the contacts on free faces and compute their "
+    "Ferrari-Canny epsilon. A pruned grasp is not scored (epsilon 0, not force-closure, quality_reason "
+    "'pruned: ...').\n\n"
+    "wrist_pose: (4,4) rigid wrist pose in the target frame. dofs: (D,) within the limits. center, radius: torque "
+    "origin and scale (m; default the target's centre of mass and largest vertex distance from it). mu, edges, "
+    "soft, torsion: the friction model (as grasp_quality). contacts_per_link: score at most this many contacts per "
+    "link (reduce_contacts: a lower bound of epsilon, an order of magnitude faster on the Barrett hand's ~100-"
+    "contact patches, and no hull volume for a grasp that is not force-closure); None: every contact. Raises "
+    "ValueError for a pose that is not a finite rigid transform, bad DOFs or bad quality parameters.";
+
+const char* const kFineTuneDoc =
+    "Local random search around a grasp for a better epsilon. The start is closed and scored; each of "
+    "`iterations` trials perturbs the starting grasp by a translation uniform in the ball of radius `translation` "
+    "(default facet_size / 2), a rotation by an angle uniform in [-angle_deg, angle_deg] degrees about a random "
+    "axis through the centroid of the start's contacts, and DOF values uniform within step / 2 of `dofs` "
+    "(default step: the hand's dof_step; 0 keeps a DOF fixed), clamped to the limits; closes again and keeps the "
+    "best grasp (unpruned, then force-closure, then epsilon, then volume; strictly better only). The trials come "
+    "from std::mt19937_64(seed), drawn before any is evaluated: the same result on every platform and thread "
+    "count. Returns FineTuneResult (best is never pruned; None when the start is pruned and no trial is not).";
+
+}  // namespace
+
+void bind_candidates(pyb::module_& m) {
+  pyb::class_<GraspEvaluation>(m, "GraspEvaluation", "A grasp closed onto contact, checked and scored (evaluate_grasp).")
+      .def_property_readonly("wrist_pose", [](const GraspEvaluation& e) { return pose_array(e.wrist); },
+                             "(4,4) wrist pose in the target frame.")
+      .def_property_readonly("dofs", [](pyb::object self) { return readonly_view(self.cast<const GraspEvaluation&>().dofs, self); },
+                             "(D,) DOF values evaluated (the closed values when closed).")
+      .def_property_readonly("start_dofs", [](pyb::object self) { return readonly_view(self.cast<const GraspEvaluation&>().start_dofs, self); },
+                             "(D,) DOF values before closing.")
+      .def_readonly("pruned", &GraspEvaluation::pruned,
+                    "Penetration beyond the tolerance, an obstacle collision or a link touching occluded faces.")
+      .def_readonly("depth", &GraspEvaluation::depth, "Largest penetration depth over links, target and obstacles (m).")
+      .def_readonly("target_depth", &GraspEvaluation::target_depth, "Largest penetration depth into the target (m).")
+      .def_readonly("reason", &GraspEvaluation::reason, "Why it is pruned ('' when kept).")
+      .def_property_readonly("contact_points", [](pyb::object self) { return readonly_view(self.cast<const GraspEvaluation&>().contacts.points, self); },
+                             "(C,3) contact points on the hand's active surfaces, target frame (m).")
+      .def_property_readonly("contact_normals", [](pyb::object self) { return readonly_view(self.cast<const GraspEvaluation&>().contacts.normals, self); },
+                             "(C,3) unit outward target normals at the contacts.")
+      .def_property_readonly("contact_links", &names_of, "Names of the links making each contact.")
+      .def_property_readonly("occluded_contacts", [](const GraspEvaluation& e) { return e.contacts.occluded_count; },
+                             "Contacts found on occluded faces (not scored).")
+      .def_property_readonly("n_contacts", [](const GraspEvaluation& e) { return e.contacts.points.rows(); },
+                             "Number of contacts on free faces.")
+      .def_property_readonly("epsilon", [](const GraspEvaluation& e) { return e.quality.epsilon; },
+                             "Ferrari-Canny epsilon (0 when pruned or not force-closure).")
+      .def_property_readonly("volume", [](const GraspEvaluation& e) { return e.quality.volume; },
+                             "6-D volume of the grasp wrench hull (0 when pruned).")
+      .def_property_readonly("force_closure", [](const GraspEvaluation& e) { return e.quality.force_closure; })
+      .def_property_readonly("quality_reason", [](const GraspEvaluation& e) { return e.quality.reason; },
+                             "Why it is not force-closure ('' when it is; 'pruned: ...' when pruned).")
+      .def_property_readonly("closing_reasons", [](const GraspEvaluation& e) {
+            pyb::tuple t(e.closing.size());
+            for (std::size_t i = 0; i < e.closing.size(); ++i) t[i] = to_string(e.closing[i]);
+            return t;
+          }, "Why each DOF stopped closing ('contact', 'limit', 'blocked', 'fixed'); () when not closed.")
+      .def_readonly("check", &GraspEvaluation::check, "CheckResult at (wrist_pose, dofs).")
+      .def_readonly("contacts", &GraspEvaluation::contacts, "Contacts at (wrist_pose, dofs).")
+      .def("__repr__", [](const GraspEvaluation& e) {
+        std::string s = "GraspEvaluation(pruned=" + std::string(e.pruned ? "True" : "False") +
+                        ", epsilon=" + std::to_string(e.quality.epsilon) +
+                        ", force_closure=" + (e.quality.force_closure ? "True" : "False") +
+                        ", contacts=" + std::to_string(e.contacts.points.rows()) + ", depth=" + std::to_string(e.depth);
+        if (!e.reason.empty()) s += ", reason='" + e.reason + "'";
+        return s + ")";
+      });
+
+  pyb::class_<FineTuneResult>(m, "FineTuneResult", "Result of fine_tune.")
+      .def_readonly("best", &FineTuneResult::best, "The best GraspEvaluation found (never pruned), or None.")
+      .def_readonly("start", &FineTuneResult::start, "The starting grasp, closed and scored.")
+      .def_readonly("trials", &FineTuneResult::trials)
+      .def_readonly("kept", &FineTuneResult::kept, "Trials that were not pruned.")
+      .def_readonly("improvements", &FineTuneResult::improvements, "Trials that replaced the best so far.")
+      .def_readonly("improved", &FineTuneResult::improved, "The best grasp is a trial strictly better than the start.")
+      .def_readonly("reason", &FineTuneResult::reason, "'' when best is set, else why nothing is returned.")
+      .def_property_readonly("found", [](const FineTuneResult& r) { return r.best.has_value(); })
+      .def_property_readonly("epsilon", [](const FineTuneResult& r) { return r.best ? r.best->quality.epsilon : 0.0; })
+      .def("__repr__", [](const FineTuneResult& r) {
+        return "FineTuneResult(epsilon=" + std::to_string(r.best ? r.best->quality.epsilon : 0.0) +
+               ", trials=" + std::to_string(r.trials) + ", kept=" + std::to_string(r.kept) +
+               ", improved=" + (r.improved ? "True" : "False") + ")";
+      });
+
+  m.def(
+      "evaluate_grasp",
+      [](const GraspChecker& checker, const pyb::object& wrist_pose, const pyb::object& dofs, const pyb::object& center,
+         const pyb::object& radius, double mu, int edges, bool close, bool soft, std::optional<double> torsion,
+         const pyb::object& contacts_per_link) {
+        const Pose w = pose_from(wrist_pose, "wrist_pose");
+        const Eigen::VectorXd q = dofs_arg(dofs, checker.hand());
+        EvaluateOptions o = evaluate_options(center, radius, mu, edges, soft, torsion, contacts_per_link, checker);
+        o.close = close;
+        pyb::gil_scoped_release release;
+        return evaluate_grasp(checker, w, q, o);
+      },
+      "checker"_a, "wrist_pose"_a, "dofs"_a, "center"_a = pyb::none(), "radius"_a = pyb::none(), "mu"_a = 0.5,
+      "edges"_a = 8, "close"_a = true, "soft"_a = false, "torsion"_a = pyb::none(), "contacts_per_link"_a = pyb::none(),
+      kEvaluateDoc);
+
+  m.def(
+      "fine_tune",
+      [](const GraspChecker& checker, const pyb::object& wrist_pose, const pyb::object& dofs, const pyb::object& step,
+         const pyb::object& facet_size, const pyb::object& iterations, std::uint64_t seed, const pyb::object& angle_deg,
+         const pyb::object& translation, const pyb::object& center, const pyb::object& radius, double mu, int edges,
+         bool soft, std::optional<double> torsion, const pyb::object& contacts_per_link, int threads) {
+        const Pose w = pose_from(wrist_pose, "wrist_pose");
+        const Eigen::VectorXd q = dofs_arg(dofs, checker.hand());
+        FineTuneOptions o;
+        if (!step.is_none()) {
+          const DoubleArray s = as_double_array(step, "step");
+          if (s.ndim() == 0) {
+            o.steps = Eigen::VectorXd::Constant(q.size(), *s.data());
+          } else {
+            if (s.ndim() != 1 || s.shape(0) != q.size())
+              throw std::invalid_argument("step: expected " + std::to_string(q.size()) + " values, got shape " + shape_of(s));
+            o.steps = Eigen::Map<const Eigen::VectorXd>(s.data(), q.size());
+          }
+        }
+        const std::optional<double> h = real_arg(facet_size, "facet_size", false);
+        const std::optional<double> t = real_arg(translation, "translation", true);
+        if (!t && !h) throw std::invalid_argument("facet_size: needed (the unit-facet edge h, metres) unless translation is given");
+        o.translation = t ? *t : *h / 2.0;
+        o.angle = *real_arg(angle_deg, "angle_deg", true) * 3.14159265358979323846 / 180.0;
+        o.iterations = count_arg(iterations, "iterations", 0);
+        o.seed = seed;
+        o.threads = threads;
+        o.evaluate = evaluate_options(center, radius, mu, edges, soft, torsion, contacts_per_link, checker);
+        pyb::gil_scoped_release release;
+        return fine_tune(checker, w, q, o);
+      },
+      "checker"_a, "wrist_pose"_a, "dofs"_a, "step"_a = pyb::none(), "facet_size"_a = pyb::none(),
+      "iterations"_a = 30, "seed"_a = 0, "angle_deg"_a = 3.0, "translation"_a = pyb::none(), "center"_a = pyb::none(),
+      "radius"_a = pyb::none(), "mu"_a = 0.5, "edges"_a = 8, "soft"_a = false, "torsion"_a = pyb::none(),
+      "contacts_per_link"_a = pyb::none(), "threads"_a = 1, kFineTuneDoc);
+
+  m.def(
+      "reduce_contacts",
+      [](const pyb::object& points, const pyb::sequence& links, const pyb::object& per_link) {
+        const Points p = points_from(points, "points");
+        std::vector<int> ids;
+        pyb::dict index;  // link name (or any hashable) -> small integer, in order of first appearance
+        for (const pyb::handle item : links) {
+          if (!index.contains(item)) index[item] = pyb::int_(index.size());
+          ids.push_back(index[item].cast<int>());
+        }
+        const int k = count_arg(per_link, "per_link", 1);
+        std::vector<int> keep;
+        {
+          pyb::gil_scoped_release release;
+          keep = reduce_contacts(p, ids, k);
+        }
+        return pyb::array_t<long>(static_cast<pyb::ssize_t>(keep.size()), std::vector<long>(keep.begin(), keep.end()).data());
+      },
+      "points"_a, "links"_a, "per_link"_a,
+      "Indices (sorted) of at most `per_link` contacts per link (`links`: the link of each contact), spread by "
+      "farthest-point sampling from the link's contact centroid (ties: the lowest index). The hull of the kept "
+      "contacts' wrenches lies inside the hull of all of them, so epsilon from them is a lower bound.");
+
+  m.def(
+      "torque_reference",
+      [](const Mesh& mesh) {
+        const TorqueReference r = torque_reference(mesh);
+        return pyb::make_tuple(Eigen::Vector3d(r.center), r.radius);
+      },
+      "mesh"_a,
+      "The default torque origin and scale of epsilon for a target mesh: (its centre of mass (m), the largest "
+      "distance (m) of its vertices from it).");
+
+  pyb::class_<EvaluatedCandidate>(m, "EvaluatedCandidate", "A candidate settled and evaluated by CandidatePipeline.")
+      .def_property_readonly("sample", [](const EvaluatedCandidate& c) { return c.candidate.sample; })
+      .def_property_readonly("pose", [](const EvaluatedCandidate& c) { return pose_array(c.candidate.pose); },
+                             "(4,4) aligned wrist pose.")
+      .def_property_readonly("dofs", [](const EvaluatedCandidate& c) { return Eigen::VectorXd(c.candidate.dofs); },
+                             "(D,) the DOF sample.")
+      .def_property_readonly("quality", [](const EvaluatedCandidate& c) { return c.candidate.quality; }, "Q_A.")
+      .def_property_readonly("votes", [](const EvaluatedCandidate& c) { return c.candidate.votes; })
+      .def_property_readonly("settled", [](const EvaluatedCandidate& c) { return to_string(c.settled); },
+                             "'aligned' or 'adjusted'.")
+      .def_property_readonly("start_pose", [](const EvaluatedCandidate& c) { return pose_array(c.start_pose); },
+                             "(4,4) settled wrist pose.")
+      .def_property_readonly("start_dofs", [](const EvaluatedCandidate& c) { return Eigen::VectorXd(c.start_dofs); })
+      .def_readonly("backoff", &EvaluatedCandidate::backoff, "Distance backed off along the approach axis (m).")
+      .def_readonly("evaluation", &EvaluatedCandidate::evaluation)
+      .def_readonly("seconds", &EvaluatedCandidate::seconds,
+                    "Seconds from the pipeline's creation until its evaluation finished.");
+
+  pyb::class_<RankedGrasp>(m, "RankedGrasp", "A grasp returned by CandidatePipeline.finish.")
+      .def_readonly("candidate", &RankedGrasp::candidate, "Index into CandidatePipeline.evaluated.")
+      .def_readonly("evaluation", &RankedGrasp::evaluation)
+      .def_readonly("fine_tuned", &RankedGrasp::fine_tuned)
+      .def_property_readonly("epsilon", [](const RankedGrasp& g) { return g.quality.epsilon; }, "From every contact.")
+      .def_property_readonly("volume", [](const RankedGrasp& g) { return g.quality.volume; })
+      .def_property_readonly("force_closure", [](const RankedGrasp& g) { return g.quality.force_closure; });
+
+  pyb::class_<CandidatePipeline>(
+      m, "CandidatePipeline",
+      "The candidate pipeline in C++: per chunk, settle each aligned candidate out of penetration (back off along "
+      "the approach axis, open the penetrating fingers), deduplicate, close onto contact, find the contacts and score "
+      "epsilon, on the shared thread pool; finish() ranks, fine-tunes and returns the grasps. It keeps a reference to "
+      "the checker.")
+      .def(pyb::init([](const GraspChecker& checker, double edge, double backoff, const pyb::object& steps,
+                        const pyb::object& center, const pyb::object& radius, double mu, int edges,
+                        const pyb::object& contacts_per_link, int max_evaluations, int threads) {
+             PipelineOptions o;
+             o.edge = edge;
+             o.backoff = backoff;
+             if (!steps.is_none()) o.steps = vector_from(steps, "steps");
+             o.evaluate = evaluate_options(center, radius, mu, edges, false, std::nullopt, contacts_per_link, checker);
+             o.max_evaluations = max_evaluations;
+             o.threads = threads;
+             return std::make_unique<CandidatePipeline>(checker, o);
+           }),
+           "checker"_a, "edge"_a, "backoff"_a, "steps"_a = pyb::none(), "center"_a = pyb::none(),
+           "radius"_a = pyb::none(), "mu"_a = 0.5, "edges"_a = 8, "contacts_per_link"_a = pyb::none(),
+           "max_evaluations"_a = -1, "threads"_a = 0, pyb::keep_alive<1, 2>())
+      .def(
+          "process",
+          [](CandidatePipeline& p, const pyb::object& poses, const pyb::object& dofs, const pyb::object& samples,
+             const pyb::object& qualities, const pyb::object& votes) {
+            const DoubleArray P = as_double_array(poses, "poses");
+            const DoubleArray Q = as_double_array(dofs, "dofs");
+            const Eigen::VectorXd S = vector_from(samples, "samples"), A = vector_from(qualities, "qualities"),
+                                  V = vector_from(votes, "votes");
+            const pyb::ssize_t K = P.ndim() == 3 ? P.shape(0) : -1;
+            if (K < 0 || P.shape(1) != 4 || P.shape(2) != 4)
+              throw std::invalid_argument("poses: expected a (K, 4, 4) array, got shape " + shape_of(P));
+            const long D = static_cast<long>(p.options().steps.size());
+            if (Q.ndim() != 2 || Q.shape(0) != K || Q.shape(1) != D)
+              throw std::invalid_argument("dofs: expected a (" + std::to_string(K) + ", " + std::to_string(D) +
+                                          ") array, got shape " + shape_of(Q));
+            if (S.size() != K || A.size() != K || V.size() != K)
+              throw std::invalid_argument("samples, qualities, votes: expected " + std::to_string(K) + " values each");
+            std::vector<Candidate> cands(K);
+            for (pyb::ssize_t k = 0; k < K; ++k) {
+              cands[k].pose = pose_from_data(P.data() + 16 * k, "poses[" + std::to_string(k) + "]");
+              cands[k].dofs = Eigen::Map<const Eigen::VectorXd>(Q.data() + D * k, D);
+              cands[k].sample = static_cast<int>(S[k]);
+              cands[k].quality = A[k];
+              cands[k].votes = static_cast<int>(V[k]);
+            }
+            ChunkReport r;
+            {
+              pyb::gil_scoped_release release;
+              r = p.process(cands);
+            }
+            return pyb::dict("settled"_a = r.settled, "settled_aligned"_a = r.settled_aligned,
+                             "evaluated"_a = r.evaluated, "checks"_a = r.checks, "settle_seconds"_a = r.settle_seconds,
+                             "evaluate_seconds"_a = r.evaluate_seconds);
+          },
+          "poses"_a, "dofs"_a, "samples"_a, "qualities"_a, "votes"_a,
+          "Settle, deduplicate and evaluate a chunk of aligned candidates (poses (K,4,4), DOF samples (K,D), sample "
+          "indices, Q_A and votes (K,)); the evaluated ones are appended to `evaluated`. Returns a dict of counts and "
+          "the seconds of the settle and evaluate phases.")
+      .def_property_readonly("fixed_links", [](const CandidatePipeline& p) {
+            return std::vector<bool>(p.fixed_links().begin(), p.fixed_links().end());
+          }, "Per link (Hand.links order): no closing DOF moves it (the palm group that backing off clears).")
+      .def_property_readonly("dof_links", [](const CandidatePipeline& p) {
+            std::vector<std::vector<bool>> out;
+            for (const auto& m : p.dof_links()) out.emplace_back(m.begin(), m.end());
+            return out;
+          }, "Per DOF, per link: the DOF moves the link.")
+      .def_property_readonly("evaluated_count", [](const CandidatePipeline& p) { return p.evaluated().size(); })
+      .def(
+          "evaluated",
+          [](const CandidatePipeline& p, std::size_t start) {
+            std::vector<EvaluatedCandidate> out;
+            for (std::size_t k = start; k < p.evaluated().size(); ++k) out.push_back(p.evaluated()[k]);
+            return out;
+          },
+          "start"_a = 0, "The evaluated candidates from index `start` on, in evaluation order.")
+      .def(
+          "finish",
+          [](const CandidatePipeline& p, int top, int fine_tune, int iterations, std::uint64_t seed,
+             std::optional<double> time_left) {
+            FinishOptions o;
+            o.top = top;
+            o.fine_tune = fine_tune;
+            o.fine_tune_iterations = iterations;
+            o.seed = seed;
+            if (time_left)
+              o.deadline = std::chrono::steady_clock::now() +
+                           std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                               std::chrono::duration<double>(std::max(0.0, *time_left)));
+            pyb::gil_scoped_release release;
+            return p.finish(o);
+          },
+          "top"_a, "fine_tune"_a, "fine_tune_iterations"_a, "seed"_a, "time_left"_a = pyb::none(),
+          "Rank the evaluated candidates, fine-tune the `fine_tune` best (seed + rank; none starts after `time_left` "
+          "seconds), drop near-duplicates and return at most `top` RankedGrasp, best first, scored with every contact.");
+}
+
+}  // namespace pairgrasp::py

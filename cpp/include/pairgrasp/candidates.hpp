@@ -1,0 +1,147 @@
+#pragma once
+/// @file candidates.hpp
+/// The candidate pipeline: aligned wrist poses in, ranked grasps out. Each chunk of candidates is
+/// one call that runs, per candidate and on the library's one thread pool (dynamic scheduling):
+///
+/// 1. **settle**: a candidate that does not penetrate (depth within the tolerance, no occluded face,
+///    no obstacle) is kept as aligned. Otherwise it is adjusted with the least change: the wrist
+///    backs off along the hand's approach axis until the links no closing DOF moves (the Barrett
+///    palm and knuckles) are clear, at most PipelineOptions::backoff (exponential search, then
+///    bisection to h/2; a hand pruned at distance d with depth D stays pruned up to d + D − tol, so
+///    the search gives up as soon as that reaches the largest back-off), then each closing DOF whose
+///    links still penetrate opens just enough (bisection between its aligned value and its open
+///    limit, to a quarter of its step), keeping the aligned finger shape elsewhere. Only the links a
+///    change moves are checked again. A candidate that does not clear is dropped.
+/// 2. **deduplicate**: settled candidates that land on the same pose (within h, ~3 degrees and half
+///    a DOF step) are evaluated once, the one of the best alignment quality; PipelineOptions::
+///    max_evaluations bounds the evaluations over all chunks.
+/// 3. **evaluate**: close onto contact, check, find the contacts on free faces, reduce them per link
+///    and compute epsilon (evaluate_grasp()).
+///
+/// finish() then ranks the evaluated candidates (unpruned, force closure, epsilon, alignment
+/// quality, votes), fine-tunes the best (fine_tune() with seed + rank), drops near-duplicates and
+/// scores the returned grasps again with every contact.
+///
+/// Results do not depend on the thread count: candidates are independent, and everything that
+/// combines them runs in input order. Lengths are metres, angles radians.
+#include <pairgrasp/collision.hpp>
+#include <pairgrasp/evaluation.hpp>
+#include <pairgrasp/types.hpp>
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <set>
+#include <vector>
+
+namespace pairgrasp {
+
+/// Options of CandidatePipeline.
+struct PipelineOptions {
+  double edge = 0.005;    ///< unit-facet edge h (m): back-off resolution h/2, fine-tune translation h/2, deduplication
+  double backoff = 0.05;  ///< largest back-off along the approach axis (m)
+  Eigen::VectorXd steps;  ///< per-DOF sampling step (empty: the hand's dof_step())
+  /// Scoring of candidates (close is always on; contacts_per_link 0: every contact).
+  EvaluateOptions evaluate;
+  int max_evaluations = -1;  ///< candidates evaluated at most over all chunks (< 0: no bound)
+  int threads = 0;           ///< threads of the pool used (0: every core)
+};
+
+/// An aligned candidate.
+struct Candidate {
+  int sample = 0;                   ///< the DOF sample it came from (the caller's index)
+  Pose pose = Pose::Identity();     ///< aligned wrist pose (target frame)
+  Eigen::VectorXd dofs;             ///< the DOF sample's values
+  double quality = 0.0;             ///< alignment quality Q_A
+  int votes = 0;                    ///< rotation votes of the alignment
+};
+
+/// How a candidate settled.
+enum class Settled {
+  Dropped,   ///< still pruned after backing off and opening the fingers
+  Aligned,   ///< kept as aligned
+  Adjusted,  ///< backed off and/or fingers opened
+};
+
+/// "dropped", "aligned" or "adjusted".
+const char* to_string(Settled settled);
+
+/// An evaluated candidate.
+struct EvaluatedCandidate {
+  Candidate candidate;
+  Settled settled = Settled::Dropped;
+  Pose start_pose = Pose::Identity();  ///< the settled wrist pose
+  Eigen::VectorXd start_dofs;          ///< the settled DOF values (before closing)
+  double backoff = 0.0;                ///< distance backed off along the approach axis (m)
+  GraspEvaluation evaluation;          ///< closed, checked and scored at the settled pose
+  double seconds = 0.0;                ///< time from the pipeline's creation until the evaluation finished
+};
+
+/// What one call of CandidatePipeline::process() did.
+struct ChunkReport {
+  int settled = 0;          ///< candidates that settled (aligned or adjusted)
+  int settled_aligned = 0;  ///< of which kept as aligned
+  int evaluated = 0;        ///< candidates evaluated (settled, not duplicates, within max_evaluations)
+  int checks = 0;           ///< link-set checks made while settling
+  double settle_seconds = 0.0, evaluate_seconds = 0.0;
+};
+
+/// A returned grasp.
+struct RankedGrasp {
+  int candidate = 0;             ///< index into CandidatePipeline::evaluated()
+  GraspEvaluation evaluation;    ///< the grasp (the fine-tuned one when fine_tuned)
+  bool fine_tuned = false;       ///< a fine-tuning trial strictly better than the candidate
+  /// Quality from every contact (the evaluation's may come from reduced contacts).
+  GraspQuality quality;
+};
+
+/// Options of CandidatePipeline::finish().
+struct FinishOptions {
+  int top = 10;                 ///< grasps returned at most
+  int fine_tune = 5;            ///< best distinct candidates fine-tuned
+  int fine_tune_iterations = 20;
+  std::uint64_t seed = 0;       ///< the grasp of rank k (0-based) is fine-tuned with seed + k
+  double angle = 0.05235987755982989;  ///< largest fine-tuning rotation (rad), 3 degrees
+  /// No fine-tuning trial starts after this time point (an anytime plan); unset: no limit.
+  std::optional<std::chrono::steady_clock::time_point> deadline;
+};
+
+/// Settles, deduplicates and evaluates candidates chunk by chunk, then ranks and fine-tunes.
+class CandidatePipeline {
+ public:
+  /// Throws std::invalid_argument for bad options (naming them).
+  CandidatePipeline(const GraspChecker& checker, const PipelineOptions& options);
+
+  /// Runs one chunk (see the file comment). The candidates evaluated are appended to evaluated()
+  /// in the order they were deduplicated (best alignment quality first, ties in input order).
+  /// Throws std::invalid_argument for a candidate with a bad pose or DOF vector ("candidates[k]: ...").
+  ChunkReport process(const std::vector<Candidate>& candidates);
+
+  /// Every candidate evaluated so far, in evaluation order.
+  const std::vector<EvaluatedCandidate>& evaluated() const { return evaluated_; }
+
+  /// Ranks the evaluated candidates, fine-tunes the best, drops near-duplicates and returns at most
+  /// `top` grasps, best first (force closure, then epsilon from every contact, then alignment
+  /// quality, then votes).
+  std::vector<RankedGrasp> finish(const FinishOptions& options) const;
+
+  const PipelineOptions& options() const { return options_; }
+  /// Links that no closing DOF moves (Hand::links() order): the palm group that backing off clears.
+  const std::vector<char>& fixed_links() const { return fixed_; }
+  /// Per DOF, the links (Hand::links() order) whose pose it changes: what opening it moves.
+  const std::vector<std::vector<char>>& dof_links() const { return moved_; }
+
+ private:
+  const GraspChecker& checker_;
+  PipelineOptions options_;
+  TorqueReference reference_;
+  Eigen::Vector3d approach_;
+  std::vector<char> fixed_;                 // per link
+  std::vector<std::vector<char>> moved_;    // per DOF, per link
+  std::set<std::vector<std::int64_t>> seen_;  // deduplication keys
+  std::vector<EvaluatedCandidate> evaluated_;
+  std::chrono::steady_clock::time_point created_;
+};
+
+}  // namespace pairgrasp

@@ -1,0 +1,369 @@
+// The candidate pipeline: settle, deduplicate, evaluate per chunk; rank and fine-tune at the end.
+#include <pairgrasp/candidates.hpp>
+
+#include "collision_internal.hpp"
+#include "thread_pool.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+
+namespace pairgrasp {
+
+const char* to_string(Settled settled) {
+  switch (settled) {
+    case Settled::Dropped: return "dropped";
+    case Settled::Aligned: return "aligned";
+    case Settled::Adjusted: return "adjusted";
+  }
+  return "unknown";
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using LinkState = GraspChecker::Impl::LinkState;
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+void check_length(const char* name, double v, bool positive) {
+  if (!std::isfinite(v) || v < 0.0 || (positive && v == 0.0))
+    throw std::invalid_argument(std::string(name) + ": expected a finite length " + (positive ? "> 0" : ">= 0") +
+                                " (m), got " + std::to_string(v));
+}
+
+// One candidate's settling: the link states at the poses tried, re-checking only the links a
+// change moved.
+class Settler {
+ public:
+  Settler(const GraspChecker::Impl& impl, const PipelineOptions& o, const Eigen::Vector3d& approach,
+          const std::vector<char>& fixed, const std::vector<std::vector<char>>& moved)
+      : I_(impl), o_(o), approach_(approach), fixed_(fixed), moved_(moved), states_(impl.links.size()) {}
+
+  int checks = 0;
+
+  // Settles `c` into `out` (settled, start_pose, start_dofs, backoff).
+  void run(const Candidate& c, EvaluatedCandidate& out) {
+    out.start_pose = c.pose;
+    out.start_dofs = c.dofs;
+    out.settled = Settled::Dropped;
+    const std::vector<char> all(states_.size(), 1);
+    std::vector<char> rest(states_.size());
+    for (std::size_t l = 0; l < rest.size(); ++l) rest[l] = !fixed_[l];
+    // The palm group first: when it is bad the wrist backs off, and the fingers are only checked
+    // where it stops.
+    measure(c.pose, c.dofs, fixed_);
+    bool moved = false;
+    if (any_bad(fixed_)) {
+      // 1. Back off until the palm group is clear.
+      if (!back_off(c, deepest(fixed_), out)) return;
+      moved = true;
+    }
+    measure(out.start_pose, c.dofs, rest);
+    if (!any_bad(all)) {
+      out.settled = moved ? Settled::Adjusted : Settled::Aligned;
+      return;
+    }
+    // 2. Open each closing DOF whose links are still bad, just enough.
+    open_fingers(c, out);
+  }
+
+ private:
+  void measure(const Pose& wrist, const Eigen::VectorXd& q, const std::vector<char>& which) {
+    const std::vector<Pose> poses = I_.hand.link_poses(q, true);
+    for (std::size_t l = 0; l < states_.size(); ++l)
+      if (which[l]) states_[l] = I_.link_state(static_cast<int>(l), wrist * poses[l]);
+    ++checks;
+  }
+  bool any_bad(const std::vector<char>& which) const {
+    for (std::size_t l = 0; l < states_.size(); ++l)
+      if (which[l] && states_[l].bad) return true;
+    return false;
+  }
+  double deepest(const std::vector<char>& which) const {
+    double d = 0.0;
+    for (std::size_t l = 0; l < states_.size(); ++l)
+      if (which[l]) d = std::max(d, states_[l].depth);
+    return d;
+  }
+  Pose backed(const Pose& pose, double distance) const {
+    Pose out = pose;
+    out.translation() -= distance * (pose.linear() * approach_);
+    return out;
+  }
+
+  // Exponential search along the approach axis (each pruned distance at least doubles, or grows
+  // by the reported depth), then bisection down to h/2 between the last pruned and the first clear
+  // distance. While backing off the hand moves rigidly, and a point's penetration depth shrinks by
+  // at most the distance it moves, so a palm pruned at d with depth D stays pruned up to
+  // d + D - tolerance: the search gives up at once when that reaches the largest back-off.
+  bool back_off(const Candidate& c, double depth0, EvaluatedCandidate& out) {
+    const double h = o_.edge, most = o_.backoff, tol = I_.options.depth_tolerance;
+    double lo = 0.0, d = std::min(std::max(depth0, h / 2.0) + h / 4.0, most);
+    std::optional<double> hi;
+    for (;;) {
+      measure(backed(c.pose, d), c.dofs, fixed_);
+      if (any_bad(fixed_)) {
+        lo = d;
+        if (!hi) {
+          const double dep = deepest(fixed_);
+          if (d >= most - 1e-12 || d + dep - tol >= most) return false;
+          d = std::min(std::max(2.0 * d, d + dep + h / 4.0), most);
+          continue;
+        }
+      } else {
+        hi = d;
+      }
+      if (*hi - lo <= h / 2.0) {
+        out.backoff = *hi;
+        out.start_pose = backed(c.pose, *hi);
+        if (*hi != d) measure(out.start_pose, c.dofs, fixed_);  // the states of the pose kept
+        return true;
+      }
+      d = (lo + *hi) / 2.0;
+    }
+  }
+
+  // Bisection of every bad closing DOF between its aligned value and its open limit, to a quarter
+  // of its step, all at once (a DOF's links decide its own interval).
+  void open_fingers(const Candidate& c, EvaluatedCandidate& out) {
+    const Eigen::Index D = c.dofs.size();
+    const Eigen::VectorXi dirs = closing_directions(I_.hand, c.dofs);
+    const Eigen::VectorXd lower = I_.hand.dof_lower(), upper = I_.hand.dof_upper();
+    std::vector<char> bad_dof(D, 0), moving(states_.size(), 0);
+    Eigen::VectorXd lo = out.start_dofs, hi = out.start_dofs;
+    bool any = false;
+    for (Eigen::Index d = 0; d < D; ++d) {
+      const double open = dirs[d] > 0 ? lower[d] : (dirs[d] < 0 ? upper[d] : c.dofs[d]);
+      bool bad = false;
+      for (std::size_t l = 0; l < states_.size(); ++l) bad = bad || (moved_[d][l] && states_[l].bad);
+      if (!bad || open == c.dofs[d]) continue;
+      bad_dof[d] = 1;
+      hi[d] = open;
+      any = true;
+      for (std::size_t l = 0; l < states_.size(); ++l) moving[l] = moving[l] || moved_[d][l];
+    }
+    if (!any || any_bad(fixed_)) return;
+    measure(out.start_pose, hi, moving);
+    if (any_bad(std::vector<char>(states_.size(), 1))) return;  // even fully open, something is bad
+    const Eigen::VectorXd steps = I_.hand.dof_step();  // the hand's resolution, whatever the schedule's step
+    for (;;) {
+      Eigen::VectorXd mid = hi;
+      for (Eigen::Index d = 0; d < D; ++d)
+        if (bad_dof[d]) mid[d] = (lo[d] + hi[d]) / 2.0;
+      measure(out.start_pose, mid, moving);
+      bool done = true;
+      for (Eigen::Index d = 0; d < D; ++d) {
+        if (!bad_dof[d]) continue;
+        bool bad = false;
+        for (std::size_t l = 0; l < states_.size(); ++l) bad = bad || (moved_[d][l] && states_[l].bad);
+        (bad ? lo[d] : hi[d]) = mid[d];
+        done = done && std::abs(hi[d] - lo[d]) <= std::max(steps[d], 1e-9) / 4.0;
+      }
+      if (done) break;
+    }
+    out.start_dofs = hi;
+    out.settled = Settled::Adjusted;
+  }
+
+  const GraspChecker::Impl& I_;
+  const PipelineOptions& o_;
+  const Eigen::Vector3d& approach_;
+  const std::vector<char>& fixed_;
+  const std::vector<std::vector<char>>& moved_;
+  std::vector<LinkState> states_;
+};
+
+// Settled candidates that land on the same pose (within h, ~3 degrees, half a DOF step) share a key.
+std::vector<std::int64_t> dedupe_key(const Pose& T, const Eigen::VectorXd& q, double h, const Eigen::VectorXd& steps) {
+  std::vector<std::int64_t> key;
+  auto cell = [&](double v, double size) { key.push_back(static_cast<std::int64_t>(std::floor(v / size + 0.5))); };
+  for (int a = 0; a < 3; ++a) cell(T.translation()[a], h);
+  for (int col = 0; col < 2; ++col)
+    for (int a = 0; a < 3; ++a) cell(T.linear()(a, col), 0.05);
+  for (Eigen::Index d = 0; d < q.size(); ++d) cell(q[d], steps[d] > 0 ? steps[d] / 2.0 : 1.0);
+  return key;
+}
+
+auto rank_key(const GraspEvaluation& e, const Candidate& c) {
+  return std::make_tuple(!e.pruned, e.quality.force_closure, e.quality.epsilon, c.quality, c.votes);
+}
+
+}  // namespace
+
+CandidatePipeline::CandidatePipeline(const GraspChecker& checker, const PipelineOptions& options)
+    : checker_(checker), options_(options), created_(Clock::now()) {
+  const Hand& hand = checker.hand();
+  check_length("edge", options_.edge, true);
+  check_length("backoff", options_.backoff, false);
+  if (options_.steps.size() == 0) options_.steps = hand.dof_step();
+  if (options_.steps.size() != hand.dof_lower().size())
+    throw std::invalid_argument("steps: expected " + std::to_string(hand.dof_lower().size()) + " values, got " +
+                                std::to_string(options_.steps.size()));
+  if (!options_.steps.allFinite() || (options_.steps.array() < 0.0).any())
+    throw std::invalid_argument("steps: expected finite values >= 0");
+  if (options_.evaluate.contacts_per_link < 0)
+    throw std::invalid_argument("contacts_per_link: expected an integer >= 0, got " +
+                                std::to_string(options_.evaluate.contacts_per_link));
+  options_.evaluate.close = true;
+  reference_ = options_.evaluate.reference ? *options_.evaluate.reference : torque_reference(checker.target());
+  options_.evaluate.reference = reference_;
+  grasp_quality(Points(0, 3), Points(0, 3), reference_.center, reference_.radius, options_.evaluate.quality);
+  approach_ = hand.approach();
+
+  // Links each DOF moves, and the links no closing DOF moves (at mid-range).
+  const GraspChecker::Impl& I = checker.impl();
+  const std::size_t L = I.links.size();
+  const Eigen::VectorXd mid = (hand.dof_lower() + hand.dof_upper()) / 2.0;
+  const Eigen::VectorXi dirs = closing_directions(hand, mid);
+  moved_.assign(I.dof_links.size(), std::vector<char>(L, 0));
+  fixed_.assign(L, 1);
+  for (std::size_t d = 0; d < I.dof_links.size(); ++d)
+    for (int l : I.dof_links[d]) {
+      moved_[d][l] = 1;
+      if (dirs[static_cast<Eigen::Index>(d)] != 0) fixed_[l] = 0;
+    }
+}
+
+ChunkReport CandidatePipeline::process(const std::vector<Candidate>& candidates) {
+  ChunkReport report;
+  const GraspChecker::Impl& I = checker_.impl();
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    const std::string where = "candidates[" + std::to_string(k) + "]";
+    try {
+      check_rigid(candidates[k].pose, "pose");
+      checker_.hand().link_poses(candidates[k].dofs);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(where + ": " + e.what());
+    }
+  }
+  // 1. Settle every candidate.
+  auto t0 = Clock::now();
+  std::vector<EvaluatedCandidate> settled(candidates.size());
+  std::vector<int> checks(candidates.size(), 0);
+  detail::parallel_for(candidates.size(), options_.threads, [&](std::size_t k) {
+    Settler s(I, options_, approach_, fixed_, moved_);
+    settled[k].candidate = candidates[k];
+    s.run(candidates[k], settled[k]);
+    checks[k] = s.checks;
+  });
+  report.checks = std::accumulate(checks.begin(), checks.end(), 0);
+  std::vector<std::size_t> order;
+  for (std::size_t k = 0; k < settled.size(); ++k)
+    if (settled[k].settled != Settled::Dropped) {
+      order.push_back(k);
+      ++report.settled;
+      if (settled[k].settled == Settled::Aligned) ++report.settled_aligned;
+    }
+  // 2. Deduplicate, best alignment quality first.
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return settled[a].candidate.quality > settled[b].candidate.quality;
+  });
+  std::vector<std::size_t> todo;
+  for (std::size_t k : order)
+    if (seen_.insert(dedupe_key(settled[k].start_pose, settled[k].start_dofs, options_.edge, options_.steps)).second)
+      todo.push_back(k);
+  if (options_.max_evaluations >= 0) {
+    const long room = std::max<long>(0, options_.max_evaluations - static_cast<long>(evaluated_.size()));
+    if (static_cast<long>(todo.size()) > room) todo.resize(static_cast<std::size_t>(room));
+  }
+  report.settle_seconds = seconds_since(t0);
+  // 3. Evaluate.
+  t0 = Clock::now();
+  detail::parallel_for(todo.size(), options_.threads, [&](std::size_t i) {
+    EvaluatedCandidate& c = settled[todo[i]];
+    c.evaluation = evaluate_grasp(checker_, c.start_pose, c.start_dofs, options_.evaluate);
+    c.seconds = seconds_since(created_);
+  });
+  for (std::size_t k : todo) evaluated_.push_back(std::move(settled[k]));
+  report.evaluated = static_cast<int>(todo.size());
+  report.evaluate_seconds = seconds_since(t0);
+  return report;
+}
+
+std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options) const {
+  if (options.top < 1) throw std::invalid_argument("top: expected an integer >= 1, got " + std::to_string(options.top));
+  if (options.fine_tune < 0 || options.fine_tune_iterations < 0)
+    throw std::invalid_argument("fine_tune: expected counts >= 0");
+  std::vector<int> kept;
+  for (std::size_t k = 0; k < evaluated_.size(); ++k)
+    if (!evaluated_[k].evaluation.pruned) kept.push_back(static_cast<int>(k));
+  auto key = [&](int k) { return rank_key(evaluated_[k].evaluation, evaluated_[k].candidate); };
+  std::stable_sort(kept.begin(), kept.end(), [&](int a, int b) { return key(a) > key(b); });
+
+  // Fine-tune the best, seed + rank.
+  std::vector<RankedGrasp> tuned;
+  const int n_tune = std::min<int>(options.fine_tune, static_cast<int>(kept.size()));
+  for (int k = 0; k < n_tune; ++k) {
+    if (options.deadline && Clock::now() >= *options.deadline) break;
+    const EvaluatedCandidate& c = evaluated_[kept[k]];
+    FineTuneOptions fo;
+    fo.steps = options_.steps;
+    fo.translation = options_.edge / 2.0;
+    fo.angle = options.angle;
+    fo.iterations = options.fine_tune_iterations;
+    fo.seed = options.seed + static_cast<std::uint64_t>(k);
+    fo.evaluate = options_.evaluate;
+    fo.threads = options_.threads;
+    FineTuneResult ft = fine_tune(checker_, c.start_pose, c.start_dofs, fo);
+    RankedGrasp g;
+    g.candidate = kept[k];
+    g.evaluation = ft.best ? std::move(*ft.best) : c.evaluation;
+    g.fine_tuned = ft.improved;
+    tuned.push_back(std::move(g));
+  }
+  for (std::size_t k = tuned.size(); k < kept.size(); ++k) {
+    RankedGrasp g;
+    g.candidate = kept[k];
+    g.evaluation = evaluated_[kept[k]].evaluation;
+    tuned.push_back(std::move(g));
+  }
+  auto tuned_key = [&](const RankedGrasp& g) {
+    const Candidate& c = evaluated_[g.candidate].candidate;
+    return std::make_tuple(g.evaluation.quality.force_closure, g.evaluation.quality.epsilon, c.quality, c.votes);
+  };
+  std::stable_sort(tuned.begin(), tuned.end(),
+                   [&](const RankedGrasp& a, const RankedGrasp& b) { return tuned_key(a) > tuned_key(b); });
+
+  // Near-duplicates (same wrist position within h, DOFs within half a step) are returned once.
+  std::vector<RankedGrasp> chosen;
+  std::set<std::vector<std::int64_t>> signatures;
+  for (RankedGrasp& g : tuned) {
+    std::vector<std::int64_t> sig;
+    for (int a = 0; a < 3; ++a)
+      sig.push_back(static_cast<std::int64_t>(std::nearbyint(g.evaluation.wrist.translation()[a] / options_.edge)));
+    for (Eigen::Index d = 0; d < g.evaluation.dofs.size(); ++d) {
+      const double half = options_.steps[d] > 0 ? options_.steps[d] / 2.0 : 1.0;
+      sig.push_back(static_cast<std::int64_t>(std::nearbyint(g.evaluation.dofs[d] / half)));
+    }
+    if (!signatures.insert(sig).second) continue;
+    chosen.push_back(std::move(g));
+    if (static_cast<int>(chosen.size()) >= options.top) break;
+  }
+
+  // The returned grasps are scored again with every contact.
+  QualityOptions full = options_.evaluate.quality;
+  full.open_volume = true;
+  detail::parallel_for(chosen.size(), options_.threads, [&](std::size_t i) {
+    const GraspEvaluation& e = chosen[i].evaluation;
+    chosen[i].quality = options_.evaluate.contacts_per_link > 0 && e.contacts.points.rows() > 0
+                            ? grasp_quality(e.contacts.points, e.contacts.normals, reference_.center, reference_.radius, full)
+                            : e.quality;
+  });
+  std::vector<std::size_t> order(chosen.size());
+  std::iota(order.begin(), order.end(), 0);
+  auto final_key = [&](std::size_t i) {
+    const Candidate& c = evaluated_[chosen[i].candidate].candidate;
+    return std::make_tuple(chosen[i].quality.force_closure, chosen[i].quality.epsilon, c.quality, c.votes,
+                           -static_cast<long>(i));
+  };
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return final_key(a) > final_key(b); });
+  std::vector<RankedGrasp> out;
+  for (std::size_t i : order) out.push_back(std::move(chosen[i]));
+  return out;
+}
+
+}  // namespace pairgrasp
