@@ -9,6 +9,7 @@
 #include <pairgrasp/types.hpp>
 
 #include <algorithm>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -91,6 +92,11 @@ inline Pose pose_from(const pyb::handle& obj, const std::string& name) {
   return pose_from_data(a.data(), name);
 }
 
+/// A per-face mask from a 1-D bool array (None: nothing); std::invalid_argument("<name>: ...").
+std::optional<Mask> mask_from(const pyb::handle& obj, const std::string& name);  // bind_validation.cpp
+/// Obstacles from a list of Mesh, of (name, Mesh) pairs, or a dict name -> Mesh (None: none).
+std::vector<Obstacle> obstacles_from(const pyb::handle& obj);  // bind_validation.cpp
+
 void bind_errors(pyb::module_& m);     // bind_errors.cpp: FileError -> pairgrasp.FileError(RuntimeError)
 void bind_mesh(pyb::module_& m);       // bind_mesh.cpp: Mesh, load_mesh, make_mesh
 void bind_hand(pyb::module_& m);       // bind_hand.cpp: Hand, load_hand, Constellation
@@ -99,5 +105,5 @@ void bind_surface(pyb::module_& m);    // bind_surface.cpp: tessellate, UnitFace
 void bind_alignment(pyb::module_& m);  // bind_alignment.cpp: solve_pair_pose, Aligner
 void bind_validation(pyb::module_& m); // bind_validation.cpp: SurfaceQuery, occluded_by, visible_from, GraspChecker
 void bind_quality(pyb::module_& m);    // bind_quality.cpp: contact wrenches, grasp quality (epsilon)
-void bind_candidates(pyb::module_& m); // bind_candidates.cpp: evaluate_grasp, fine_tune, CandidatePipeline
+void bind_planning(pyb::module_& m);   // bind_planning.cpp: evaluate_grasp, fine_tune, CandidatePipeline, GraspPlanner
 }  // namespace pairgrasp::py

@@ -24,18 +24,6 @@ using namespace pybind11::literals;
 
 
 
-std::optional<Mask> mask_from(const pyb::handle& obj, const std::string& name) {
-  if (obj.is_none()) return std::nullopt;
-  pyb::array a = pyb::module_::import("numpy").attr("asarray")(obj);
-  if (a.ndim() != 1) throw std::invalid_argument(name + ": expected a 1-D boolean array, got shape " + shape_of(a));
-  const std::string kind = pyb::str(a.dtype().attr("kind"));
-  if (kind != "b") throw std::invalid_argument(name + ": expected a boolean array, got dtype " + std::string(pyb::str(a.dtype())));
-  const auto b = pyb::array_t<bool, pyb::array::c_style | pyb::array::forcecast>::ensure(a);
-  Mask m(b.shape(0));
-  for (pyb::ssize_t i = 0; i < b.shape(0); ++i) m[i] = b.data()[i];
-  return m;
-}
-
 pyb::array_t<bool> mask_to_numpy(const Mask& m) {
   pyb::array_t<bool> a(m.size());
   std::copy(m.data(), m.data() + m.size(), a.mutable_data());
@@ -54,6 +42,38 @@ std::vector<Mesh> meshes_from(const pyb::handle& obj, const std::string& name) {
     ++i;
   }
   return out;
+}
+
+pyb::array_t<double> matrix_array(const Eigen::MatrixXd& m) {
+  pyb::array_t<double> a({m.rows(), m.cols()});
+  auto r = a.mutable_unchecked<2>();
+  for (Eigen::Index i = 0; i < m.rows(); ++i)
+    for (Eigen::Index j = 0; j < m.cols(); ++j) r(i, j) = m(i, j);
+  return a;
+}
+
+std::string repr_check(const CheckResult& r) {
+  std::ostringstream s;
+  s.precision(4);
+  s << "CheckResult(pruned=" << (r.pruned ? "True" : "False") << ", collision=" << (r.collision ? "True" : "False")
+    << ", depth=" << r.depth << ", touches_occluded=" << (r.touches_occluded ? "True" : "False");
+  if (!r.reason.empty()) s << ", reason='" << r.reason << "'";
+  s << ")";
+  return s.str();
+}
+
+}  // namespace
+
+std::optional<Mask> mask_from(const pyb::handle& obj, const std::string& name) {
+  if (obj.is_none()) return std::nullopt;
+  pyb::array a = pyb::module_::import("numpy").attr("asarray")(obj);
+  if (a.ndim() != 1) throw std::invalid_argument(name + ": expected a 1-D boolean array, got shape " + shape_of(a));
+  const std::string kind = pyb::str(a.dtype().attr("kind"));
+  if (kind != "b") throw std::invalid_argument(name + ": expected a boolean array, got dtype " + std::string(pyb::str(a.dtype())));
+  const auto b = pyb::array_t<bool, pyb::array::c_style | pyb::array::forcecast>::ensure(a);
+  Mask m(b.shape(0));
+  for (pyb::ssize_t i = 0; i < b.shape(0); ++i) m[i] = b.data()[i];
+  return m;
 }
 
 // Obstacles: a list of Mesh (named by their source) or (name, Mesh) pairs, or a dict name -> Mesh.
@@ -91,26 +111,6 @@ std::vector<Obstacle> obstacles_from(const pyb::handle& obj) {
   }
   return out;
 }
-
-pyb::array_t<double> matrix_array(const Eigen::MatrixXd& m) {
-  pyb::array_t<double> a({m.rows(), m.cols()});
-  auto r = a.mutable_unchecked<2>();
-  for (Eigen::Index i = 0; i < m.rows(); ++i)
-    for (Eigen::Index j = 0; j < m.cols(); ++j) r(i, j) = m(i, j);
-  return a;
-}
-
-std::string repr_check(const CheckResult& r) {
-  std::ostringstream s;
-  s.precision(4);
-  s << "CheckResult(pruned=" << (r.pruned ? "True" : "False") << ", collision=" << (r.collision ? "True" : "False")
-    << ", depth=" << r.depth << ", touches_occluded=" << (r.touches_occluded ? "True" : "False");
-  if (!r.reason.empty()) s << ", reason='" << r.reason << "'";
-  s << ")";
-  return s.str();
-}
-
-}  // namespace
 
 void bind_validation(pyb::module_& m) {
   // ---------------------------------------------------------------- SurfaceQuery

@@ -14,5 +14,5 @@ PYBIND11_MODULE(_core, m) {
   pairgrasp::py::bind_alignment(m);
   pairgrasp::py::bind_validation(m);
   pairgrasp::py::bind_quality(m);
-  pairgrasp::py::bind_candidates(m);
+  pairgrasp::py::bind_planning(m);
 }

@@ -68,7 +68,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from . import _core
-from .checks import check_target_scale, warn_if_open
+from .checks import warn_if_open
 
 __all__ = ["PlanParams", "Grasp", "Candidate", "PlanResult", "Planner", "dof_grid"]
 
@@ -341,17 +341,9 @@ def _round(x, digits: int = 9):
 def dof_grid(lower: Sequence[float], upper: Sequence[float], step: Sequence[float]) -> List[np.ndarray]:
     """Per-DOF sample values: lower, lower + step, ..., and upper (a last, shorter step when the range
     is not a multiple of the step). A DOF with lower == upper or step 0 has one value."""
-    out = []
-    for lo, hi, st in zip(lower, upper, step):
-        if hi - lo <= 1e-12 or st <= 0:
-            out.append(np.array([lo], float))
-            continue
-        n = int(math.floor((hi - lo) / st + 1e-9))
-        vals = lo + st * np.arange(n + 1)
-        if hi - vals[-1] > 1e-9 * max(1.0, abs(hi)):
-            vals = np.append(vals, hi)
-        out.append(vals)
-    return out
+    return [np.array(v, float) for v in _core._dof_axes(np.asarray(lower, float).reshape(-1),
+                                                         np.asarray(upper, float).reshape(-1),
+                                                         np.asarray(step, float).reshape(-1))]
 
 
 class _Progress:
@@ -467,39 +459,22 @@ class Planner:
         if obstacles:
             self.inputs["obstacles"] = [os.fspath(o) if not isinstance(o, _core.Mesh) else "<mesh>" for o in obstacles]
         self.inputs["free_faces"] = int(free.sum())
-        self.center, self.radius = _core.torque_reference(self.target)
-
-        self.mode = self._constellation_mode()
-        lo = np.asarray(self.hand.dof_lower, float)
-        hi = np.asarray(self.hand.dof_upper, float)
-        mid = (lo + hi) / 2
-        extent = np.ptp(np.asarray(self.target.bounds, float), axis=0)
-        d_max = p.d_max if p.d_max is not None else None
-        if p.edge is not None:
-            edge = float(p.edge)
-        else:
-            edge = min(0.005, float(extent.min()) / 15.0) if extent.min() > 0 else 0.005
-        if d_max is None:
-            d_max = self._hand_span(lo, hi, edge) + edge
-        target_name = self.target.source or self.inputs["target"]
-        check_target_scale(self.target, d_max, target_name)
-        warn_if_open(self.target, target_name)
-        if p.edge is None:
-            budget_edge = _core.suggest_edge(self.target, d_max, int(p.max_pairs), free)
-            edge = max(edge, budget_edge)
-        self.edge, self.d_max = float(edge), float(d_max)
-        self.spacing = None
-        if self.mode == "area":
-            self.spacing = float(p.spacing) if p.spacing is not None else self._area_spacing(mid)
-        self.tindex = _core.build_target_index(self.target, edge=self.edge, d_max=self.d_max, free=free,
-                                               max_pairs=int(p.max_pairs), threads=p.threads)
-        self.aligner = self._aligner(max(replace(p, schedule=s).poses()[1] for s in ("grid", "fast")))
-        depth_tol = p.depth_tolerance if p.depth_tolerance is not None else self.edge / 4.0
-        self.depth_tolerance = float(depth_tol)
-        self.checker = _core.GraspChecker(self.hand, self.target, free=free, obstacles=self.obstacles,
-                                          depth_tolerance=depth_tol, gap=p.gap, threads=p.threads)
-        reach = self._reach(lo, hi)
-        self.backoff = float(p.backoff) if p.backoff is not None else reach / 2.0
+        # The parameters fixed by the index, resolved in C++ (the target's scale is checked against
+        # the hand's span there before anything large is built).
+        options = dict(edge=p.edge or 0.0, d_max=p.d_max or 0.0, max_pairs=int(p.max_pairs),
+                       constellation=p.constellation, spacing=p.spacing or 0.0,
+                       max_area_samples=int(p.max_area_samples),
+                       depth_tolerance=-1.0 if p.depth_tolerance is None else float(p.depth_tolerance),
+                       gap=float(p.gap), backoff=-1.0 if p.backoff is None else float(p.backoff),
+                       max_poses=max(replace(p, schedule=s).poses()[1] for s in ("grid", "fast")), threads=p.threads)
+        warn_if_open(self.target, self.target.source or self.inputs["target"])
+        self.core = _core.GraspPlanner(self.hand, self.target, free, self.obstacles, **options)
+        setup = self.core.setup
+        self.mode, self.edge, self.d_max = setup.mode, float(setup.edge), float(setup.d_max)
+        self.spacing = float(setup.spacing) if self.mode == "area" else None
+        self.depth_tolerance, self.backoff = float(setup.depth_tolerance), float(setup.backoff)
+        self.tindex, self.aligner, self.checker = self.core.target_index, self.core.aligner, self.core.checker
+        self.center, self.radius = self.core.reference
         self.setup_time = time.perf_counter() - t0
 
     # ---------------------------------------------------------------- set-up helpers
@@ -530,72 +505,15 @@ class Planner:
             free = np.ones(len(mesh.faces), bool)
         return np.asarray(free, bool)
 
-    def _constellation_mode(self) -> str:
-        if self.params.constellation != "auto":
-            return self.params.constellation
-        lo = np.asarray(self.hand.dof_lower, float)
-        hi = np.asarray(self.hand.dof_upper, float)
-        c = self.hand.constellation((lo + hi) / 2, mode="per_link")
-        pts, nrm = np.asarray(c.points), np.asarray(c.normals)
-        if len(pts) < 3:
-            return "area"
-        for i, j in itertools.combinations(range(len(pts)), 2):
-            d = pts[j] - pts[i]
-            n = np.linalg.norm(d)
-            if n < 1e-9:
-                continue
-            d /= n
-            if abs(nrm[i] @ d) < 0.95 or abs(nrm[j] @ d) < 0.95:
-                return "per_link"  # some pair determines its roll
-        return "area"
-
-    def _corner_samples(self, lo, hi):
-        vals = [np.unique([a, (a + b) / 2, b]) for a, b in zip(lo, hi)]
-        return [np.array(q) for q in itertools.product(*vals)]
-
-    def _hand_span(self, lo, hi, edge) -> float:
-        span = 0.0
-        for q in self._corner_samples(lo, hi):
-            pts = np.asarray(self.hand.constellation(q, mode="per_link").points)
-            if self.mode == "area":
-                pts = np.asarray(self.hand.constellation(q, mode="area", spacing=max(edge, 0.005)).points)
-            if len(pts) > 1:
-                diff = pts[:, None, :] - pts[None, :, :]
-                span = max(span, float(np.sqrt((diff ** 2).sum(-1)).max()))
-        if span <= 0.0:
-            raise ValueError(f"hand {self.hand.name}: its active surfaces give no two distinct samples")
-        return span
-
-    def _reach(self, lo, hi) -> float:
-        reach = 0.0
-        for q in self._corner_samples(lo, hi):
-            pts = np.asarray(self.hand.constellation(q, mode="per_link").points)
-            if len(pts):
-                reach = max(reach, float(np.linalg.norm(pts, axis=1).max()))
-        return reach
-
-    def _area_spacing(self, mid) -> float:
-        s = self.edge
-        for _ in range(40):
-            n = len(self.hand.constellation(mid, mode="area", spacing=s).points)
-            if n <= self.params.max_area_samples:
-                return s
-            s *= 1.25
-        return s
-
     # ---------------------------------------------------------------- scheduling
 
     def steps(self, step: Optional[float] = None) -> np.ndarray:
         """Per-DOF sampling step: ``step`` for angular DOFs (None: the hand's), the hand's for linear ones."""
-        out = []
-        for dof in self.hand.dofs:
-            out.append(float(dof.step) if (step is None or dof.linear) else float(step))
-        return np.array(out)
+        return np.asarray(self.core.steps(0.0 if step is None else float(step)), float)
 
     def constellation(self, q):
-        if self.mode == "area":
-            return self.hand.constellation(q, mode="area", spacing=self.spacing)
-        return self.hand.constellation(q, mode="per_link")
+        """The constellation aligned for DOF sample ``q`` (the resolved mode and spacing)."""
+        return self.core.constellation(q)
 
     def match_fraction(self, q) -> float:
         """Fraction of the gripper pairs at DOF sample ``q`` whose feature (normals flipped) matches at
@@ -795,8 +713,10 @@ class Planner:
         bar.start("align", len(qs))
         for b in range(0, len(qs), batch):
             chunk = qs[b:b + batch]
-            cons = [self.constellation(q) for q in chunk]
-            res = aligner.align_many(cons)
+            if aligner is self.aligner:
+                res = self.core.align(np.array(chunk))
+            else:
+                res = aligner.align_many([self.constellation(q) for q in chunk])
             for q, poses in zip(chunk, res):
                 samples.append(q)
                 s = len(samples) - 1

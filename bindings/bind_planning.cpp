@@ -1,9 +1,10 @@
-// The candidate pipeline: evaluate_grasp, fine_tune, reduce_contacts, torque_reference and the
-// batched CandidatePipeline (settle, deduplicate, evaluate, rank and fine-tune) the Planner drives.
+// Planning: evaluate_grasp, fine_tune, reduce_contacts, torque_reference, the batched
+// CandidatePipeline (settle, deduplicate, evaluate, rank, fine-tune) and GraspPlanner / plan_samples.
 #include "bind.hpp"
 
 #include <pairgrasp/candidates.hpp>
 #include <pairgrasp/evaluation.hpp>
+#include <pairgrasp/planner.hpp>
 
 #include <chrono>
 #include <cmath>
@@ -104,9 +105,50 @@ const char* const kFineTuneDoc =
     "from std::mt19937_64(seed), drawn before any is evaluated: the same result on every platform and thread "
     "count. Returns FineTuneResult (best is never pruned; None when the start is pruned and no trial is not).";
 
+ConstellationChoice choice_from(const std::string& c) {
+  if (c == "auto") return ConstellationChoice::Auto;
+  if (c == "per_link") return ConstellationChoice::PerLink;
+  if (c == "area") return ConstellationChoice::Area;
+  throw std::invalid_argument("constellation: expected 'auto', 'per_link' or 'area', got '" + c + "'");
+}
+
+PlannerOptions planner_options(double edge, double d_max, std::size_t max_pairs, const std::string& constellation,
+                               double spacing, int max_area_samples, double depth_tolerance, double gap, double backoff,
+                               int max_poses, int threads) {
+  PlannerOptions o;
+  o.edge = edge;
+  o.d_max = d_max;
+  o.max_pairs = max_pairs;
+  o.constellation = choice_from(constellation);
+  o.spacing = spacing;
+  o.max_area_samples = max_area_samples;
+  o.depth_tolerance = depth_tolerance;
+  o.gap = gap;
+  o.backoff = backoff;
+  o.max_poses = max_poses;
+  o.threads = threads;
+  return o;
+}
+
+const char* mode_name(ConstellationMode m) { return m == ConstellationMode::Area ? "area" : "per_link"; }
+
+std::vector<Eigen::VectorXd> samples_from(const pyb::object& obj, long dofs) {
+  const DoubleArray a = as_double_array(obj, "samples");
+  if (a.ndim() != 2 || a.shape(1) != dofs)
+    throw std::invalid_argument("samples: expected a (K, " + std::to_string(dofs) + ") array, got shape " + shape_of(a));
+  std::vector<Eigen::VectorXd> out;
+  for (pyb::ssize_t k = 0; k < a.shape(0); ++k) out.emplace_back(Eigen::Map<const Eigen::VectorXd>(a.data() + dofs * k, dofs));
+  return out;
+}
+
+const char* const kPlannerOptionsDoc =
+    "edge (m; 0: derived), d_max (m; 0: the hand's span + edge), max_pairs, constellation ('auto', 'per_link', "
+    "'area'), spacing (m; 0: derived), max_area_samples, depth_tolerance (m; < 0: edge / 4), gap (m), backoff (m; "
+    "< 0: half the hand's reach), max_poses (aligned poses kept per sample), threads (0: every core).";
+
 }  // namespace
 
-void bind_candidates(pyb::module_& m) {
+void bind_planning(pyb::module_& m) {
   pyb::class_<GraspEvaluation>(m, "GraspEvaluation", "A grasp closed onto contact, checked and scored (evaluate_grasp).")
       .def_property_readonly("wrist_pose", [](const GraspEvaluation& e) { return pose_array(e.wrist); },
                              "(4,4) wrist pose in the target frame.")
@@ -373,6 +415,122 @@ void bind_candidates(pyb::module_& m) {
           "top"_a, "fine_tune"_a, "fine_tune_iterations"_a, "seed"_a, "time_left"_a = pyb::none(),
           "Rank the evaluated candidates, fine-tune the `fine_tune` best (seed + rank; none starts after `time_left` "
           "seconds), drop near-duplicates and return at most `top` RankedGrasp, best first, scored with every contact.");
+
+  pyb::class_<PlannerSetup>(m, "PlannerSetup", "Parameters resolved from the hand and the target (resolve_planner).")
+      .def_readonly("edge", &PlannerSetup::edge, "Unit-facet edge (m).")
+      .def_readonly("d_max", &PlannerSetup::d_max, "Largest stored pair distance (m).")
+      .def_property_readonly("mode", [](const PlannerSetup& s) { return mode_name(s.mode); }, "'per_link' or 'area'.")
+      .def_readonly("spacing", &PlannerSetup::spacing, "Area spacing (m; 0 for per-link constellations).")
+      .def_readonly("depth_tolerance", &PlannerSetup::depth_tolerance, "m")
+      .def_readonly("backoff", &PlannerSetup::backoff, "Largest back-off when settling (m).")
+      .def_readonly("reach", &PlannerSetup::reach, "Largest distance of a constellation sample from the wrist (m).");
+
+#define PG_PLANNER_ARGS                                                                                        \
+  "edge"_a = 0.0, "d_max"_a = 0.0, "max_pairs"_a = PlannerOptions().max_pairs, "constellation"_a = "auto",     \
+      "spacing"_a = 0.0, "max_area_samples"_a = PlannerOptions().max_area_samples, "depth_tolerance"_a = -1.0, \
+      "gap"_a = PlannerOptions().gap, "backoff"_a = -1.0, "max_poses"_a = PlannerOptions().max_poses,         \
+      "threads"_a = 0
+  m.def(
+      "resolve_planner",
+      [](const Hand& hand, const Mesh& target, const pyb::object& free, double edge, double d_max, std::size_t max_pairs,
+         const std::string& constellation, double spacing, int max_area_samples, double depth_tolerance, double gap,
+         double backoff, int max_poses, int threads) {
+        const Mask mask = mask_from(free, "free").value_or(Mask());
+        const PlannerOptions o = planner_options(edge, d_max, max_pairs, constellation, spacing, max_area_samples,
+                                                 depth_tolerance, gap, backoff, max_poses, threads);
+        pyb::gil_scoped_release release;
+        return resolve_planner(hand, target, mask, o);
+      },
+      "hand"_a, "target"_a, "free"_a = pyb::none(), PG_PLANNER_ARGS,
+      (std::string("The parameters a GraspPlanner would resolve (before indexing anything). ") + kPlannerOptionsDoc).c_str());
+
+  pyb::class_<GraspPlanner>(
+      m, "GraspPlanner",
+      "Everything built once per hand and target: the resolved parameters, the target's unit facets and pair index, "
+      "the aligner and the grasp checker (the C++ planning API; pairgrasp.Planner drives it).")
+      .def(pyb::init([](const Hand& hand, const Mesh& target, const pyb::object& free, const pyb::object& obstacles,
+                        double edge, double d_max, std::size_t max_pairs, const std::string& constellation,
+                        double spacing, int max_area_samples, double depth_tolerance, double gap, double backoff,
+                        int max_poses, int threads) {
+             const Mask mask = mask_from(free, "free").value_or(Mask());
+             const std::vector<Obstacle> obs = obstacles_from(obstacles);
+             const PlannerOptions o = planner_options(edge, d_max, max_pairs, constellation, spacing, max_area_samples,
+                                                      depth_tolerance, gap, backoff, max_poses, threads);
+             pyb::gil_scoped_release release;
+             return std::make_unique<GraspPlanner>(hand, target, mask, obs, o);
+           }),
+           "hand"_a, "target"_a, "free"_a = pyb::none(), "obstacles"_a = pyb::list(), PG_PLANNER_ARGS)
+      .def_property_readonly("setup", &GraspPlanner::setup, pyb::return_value_policy::reference_internal)
+      .def_property_readonly("target_index", &GraspPlanner::target_index, pyb::return_value_policy::reference_internal)
+      .def_property_readonly("aligner", &GraspPlanner::aligner, pyb::return_value_policy::reference_internal)
+      .def_property_readonly("checker", &GraspPlanner::checker, pyb::return_value_policy::reference_internal)
+      .def_property_readonly("reference", [](const GraspPlanner& p) {
+            return pyb::make_tuple(Eigen::Vector3d(p.reference().center), p.reference().radius);
+          }, "(torque origin (m), torque scale (m)) of epsilon.")
+      .def_property_readonly("setup_seconds", &GraspPlanner::setup_seconds)
+      .def("steps", &GraspPlanner::steps, "step"_a = 0.0,
+           "Per-DOF step: `step` (rad) for angular DOFs (0: the hand's), the hand's for linear ones.")
+      .def("constellation", [](const GraspPlanner& p, const pyb::object& dofs) {
+            return p.constellation(vector_from(dofs, "dofs"));
+          }, "dofs"_a, "The constellation aligned for a DOF sample.")
+      .def(
+          "align",
+          [](const GraspPlanner& p, const pyb::object& samples) {
+            const std::vector<Eigen::VectorXd> qs = samples_from(samples, static_cast<long>(p.hand().dofs().size()));
+            std::vector<AlignResult> r;
+            {
+              pyb::gil_scoped_release release;
+              r = p.align(qs);
+            }
+            pyb::list out;
+            for (AlignResult& a : r) {
+              pyb::list poses;
+              for (AlignedPose& pose : a.poses) poses.append(pyb::cast(std::move(pose)));
+              out.append(poses);
+            }
+            return out;
+          },
+          "samples"_a, "Aligns each sample (K, D): a list of K lists of AlignedPose, best first.");
+
+  m.def(
+      "_dof_axes",
+      [](const pyb::object& lower, const pyb::object& upper, const pyb::object& step) {
+        return dof_axes(vector_from(lower, "lower"), vector_from(upper, "upper"), vector_from(step, "step"));
+      },
+      "lower"_a, "upper"_a, "step"_a, "Per-DOF sample values (see pairgrasp.dof_grid).");
+
+  m.def(
+      "plan_samples",
+      [](const GraspPlanner& planner, const pyb::object& samples, int poses_per_sample, int chunk, double step, int top,
+         int fine_tune, int fine_tune_iterations, std::uint64_t seed, double mu, int edges, int contacts_per_link,
+         int max_evaluations) {
+        const std::vector<Eigen::VectorXd> qs = samples_from(samples, static_cast<long>(planner.hand().dofs().size()));
+        PlanOptions o;
+        o.poses_per_sample = poses_per_sample;
+        o.chunk = chunk;
+        o.step = step;
+        o.top = top;
+        o.fine_tune = fine_tune;
+        o.fine_tune_iterations = fine_tune_iterations;
+        o.seed = seed;
+        o.mu = mu;
+        o.edges = edges;
+        o.contacts_per_link = contacts_per_link;
+        o.max_evaluations = max_evaluations;
+        PlanReport r;
+        {
+          pyb::gil_scoped_release release;
+          r = plan_samples(planner, qs, o);
+        }
+        return pyb::make_tuple(r.grasps, r.candidates, r.counts, r.timings);
+      },
+      "planner"_a, "samples"_a, "poses_per_sample"_a = PlanOptions().poses_per_sample, "chunk"_a = PlanOptions().chunk,
+      "step"_a = 0.0, "top"_a = PlanOptions().top, "fine_tune"_a = PlanOptions().fine_tune,
+      "fine_tune_iterations"_a = PlanOptions().fine_tune_iterations, "seed"_a = 0, "mu"_a = 0.5, "edges"_a = 8,
+      "contacts_per_link"_a = PlanOptions().contacts_per_link, "max_evaluations"_a = -1,
+      "The C++ planning call: align each sample (K, D), settle, evaluate, rank and fine-tune, `chunk` samples at a "
+      "time. Returns (grasps: list of RankedGrasp, candidates: list of EvaluatedCandidate, counts, timings).");
+#undef PG_PLANNER_ARGS
 }
 
 }  // namespace pairgrasp::py

@@ -1,0 +1,155 @@
+#pragma once
+/// @file planner.hpp
+/// Planning from C++: a GraspPlanner holds everything built once per hand and target (the
+/// parameters resolved from the hand and the target, the target's unit facets and pair index, the
+/// aligner, the grasp checker); plan_samples() runs a list of DOF samples through alignment and the
+/// candidate pipeline (candidates.hpp) to ranked grasps. The Python Planner builds the same
+/// GraspPlanner and drives the same steps chunk by chunk, with its coarse-to-fine schedule on top;
+/// for the same samples, parameters and seed both return the same grasps.
+///
+/// Frames: wrist poses map wrist coordinates to target coordinates (p_T = R·p_G + t). Lengths are
+/// metres, angles radians.
+#include <pairgrasp/aligner.hpp>
+#include <pairgrasp/candidates.hpp>
+#include <pairgrasp/collision.hpp>
+#include <pairgrasp/hand.hpp>
+#include <pairgrasp/mesh.hpp>
+#include <pairgrasp/pair_index.hpp>
+#include <pairgrasp/types.hpp>
+
+#include <cstddef>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace pairgrasp {
+
+/// How constellations are chosen.
+enum class ConstellationChoice {
+  Auto,     ///< per-link unless every per-link pair is antipodal or there are fewer than 3 samples (a parallel jaw): area
+  PerLink,  ///< one sample per active link (the paper)
+  Area,     ///< samples spread over the active surfaces
+};
+
+/// Options of GraspPlanner: what is fixed once the target is indexed. A value of 0 (or < 0 where
+/// said) means "derive it", as documented per field.
+struct PlannerOptions {
+  /// Unit-facet edge h (m); 0: 5 mm, or 1/15 of the target's smallest extent if smaller, or
+  /// coarser when the pair budget requires it (suggest_edge()).
+  double edge = 0.0;
+  /// Largest stored pair distance (m); 0: the largest distance between two constellation samples
+  /// over the hand's DOF range (corners and middles of every DOF), plus h.
+  double d_max = 0.0;
+  std::size_t max_pairs = 20'000'000;  ///< pair budget of the index
+  ConstellationChoice constellation = ConstellationChoice::Auto;
+  /// Area-sample spacing (m); 0: the smallest of h·1.25^k giving at most max_area_samples at mid-range.
+  double spacing = 0.0;
+  int max_area_samples = 24;
+  double depth_tolerance = -1.0;  ///< penetration tolerated (m); < 0: h / 4
+  double gap = 0.001;             ///< contact gap (m)
+  /// Largest back-off along the approach axis when settling (m); < 0: half the hand's reach (the
+  /// largest distance of a per-link constellation sample from the wrist).
+  double backoff = -1.0;
+  int max_poses = 12;  ///< aligned poses kept per sample at most (the aligner's max_poses)
+  int threads = 0;     ///< 0: every core
+};
+
+/// The parameters a GraspPlanner resolved from the hand and the target (before the index is
+/// built), so that a caller may check them first (e.g. the target's scale against d_max).
+struct PlannerSetup {
+  double edge = 0.0;   ///< unit-facet edge (m)
+  double d_max = 0.0;  ///< largest stored pair distance (m)
+  ConstellationMode mode = ConstellationMode::PerLink;
+  double spacing = 0.0;          ///< area spacing (m; 0 for per-link constellations)
+  double depth_tolerance = 0.0;  ///< m
+  double backoff = 0.0;          ///< m
+  double reach = 0.0;            ///< largest distance of a constellation sample from the wrist (m)
+};
+
+/// Throws std::invalid_argument ("<target source>: ... is the mesh in millimetres? ... scale 0.001")
+/// when `target` is far too large or too small for a hand whose samples span `hand_span` metres:
+/// every extent above 50 spans, or the largest below 1/200 of one. The usual sign of a mesh in
+/// millimetres read as metres, or of a scale applied twice.
+void check_target_scale(const Mesh& target, double hand_span);
+
+/// Resolves PlannerOptions for a hand and a target (see each option), checking the target's scale
+/// against d_max (check_target_scale()) before anything large is computed. Throws
+/// std::invalid_argument for bad options (naming them), a target at the wrong scale or a hand whose
+/// active surfaces give no two distinct samples.
+PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& free, const PlannerOptions& options);
+
+/// Per-DOF sample values: lower, lower + step, ..., and upper (a last, shorter step when the range is
+/// not a multiple of the step). A DOF with lower == upper or step 0 has one value.
+std::vector<std::vector<double>> dof_axes(const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                                          const Eigen::VectorXd& steps);
+
+/// Every sample of the grid of dof_axes() (the Cartesian product, the last DOF varying fastest).
+std::vector<Eigen::VectorXd> dof_grid(const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                                      const Eigen::VectorXd& steps);
+
+/// Everything built once per hand and target.
+class GraspPlanner {
+ public:
+  /// Resolves the options, tessellates and indexes the target's free faces, and builds the aligner
+  /// and the grasp checker (`obstacles` in the target frame). Throws std::invalid_argument for bad
+  /// options or masks, BudgetError when the pair budget cannot be met.
+  GraspPlanner(const Hand& hand, const Mesh& target, const Mask& free = Mask(),
+               const std::vector<Obstacle>& obstacles = {}, const PlannerOptions& options = {});
+
+  const Hand& hand() const;
+  const Mesh& target() const;
+  const Mask& free() const;
+  const PlannerSetup& setup() const;
+  const PlannerOptions& options() const;
+  const TargetIndex& target_index() const;
+  const Aligner& aligner() const;
+  const GraspChecker& checker() const;
+  /// Torque reference of epsilon: the target's centre of mass and largest vertex distance from it.
+  const TorqueReference& reference() const;
+  /// Seconds spent in the constructor (index, aligner, checker and its distance fields).
+  double setup_seconds() const;
+
+  /// Per-DOF sampling step: `step` (rad) for angular DOFs (<= 0: the hand's), the hand's for linear ones.
+  Eigen::VectorXd steps(double step = 0.0) const;
+  /// The constellation aligned for a DOF sample (the resolved mode and spacing).
+  Constellation constellation(const Eigen::VectorXd& dofs) const;
+  /// Aligns each sample's constellation (all threads, one sample per task); result k belongs to
+  /// samples[k], best pose first, at most options().max_poses poses.
+  std::vector<AlignResult> align(const std::vector<Eigen::VectorXd>& samples) const;
+
+ private:
+  struct State;
+  std::shared_ptr<const State> state_;
+};
+
+/// Options of plan_samples().
+struct PlanOptions {
+  int poses_per_sample = 3;  ///< best aligned poses of each sample that become candidates
+  int chunk = 128;           ///< samples aligned, settled and evaluated together
+  double step = 0.0;         ///< sampling step of angular DOFs (rad) for fine-tuning and deduplication; 0: the hand's
+  int top = 10;              ///< grasps returned
+  int fine_tune = 5;         ///< best distinct grasps fine-tuned
+  int fine_tune_iterations = 20;
+  std::uint64_t seed = 0;    ///< the grasp of rank k is fine-tuned with seed + k
+  double mu = 0.5;           ///< friction coefficient
+  int edges = 8;             ///< friction-pyramid edges
+  int contacts_per_link = 6; ///< contacts scored per link while searching (0: every contact)
+  int max_evaluations = -1;  ///< candidates evaluated at most (< 0: all)
+};
+
+/// What plan_samples() returns.
+struct PlanReport {
+  std::vector<RankedGrasp> grasps;               ///< best first
+  std::vector<EvaluatedCandidate> candidates;    ///< every evaluated candidate, in evaluation order
+  std::map<std::string, long> counts;            ///< samples, aligned_poses, settled, settled_aligned, evaluated, force_closure
+  std::map<std::string, double> timings;         ///< seconds: align, settle, evaluate, fine_tune
+};
+
+/// Runs `samples` (DOF vectors within the limits) through alignment, the candidate pipeline and the
+/// ranking, `options.chunk` samples at a time, on the planner's threads. Deterministic for a seed and
+/// independent of the thread count. Throws std::invalid_argument for bad options or samples.
+PlanReport plan_samples(const GraspPlanner& planner, const std::vector<Eigen::VectorXd>& samples,
+                        const PlanOptions& options = {});
+
+}  // namespace pairgrasp

@@ -1,0 +1,344 @@
+// GraspPlanner (parameters, index, aligner, checker) and plan_samples (align -> pipeline -> grasps).
+#include <pairgrasp/planner.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+
+namespace pairgrasp {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+void check_value(const char* name, double v, bool zero_ok) {
+  if (!std::isfinite(v) || v < 0.0 || (!zero_ok && v == 0.0))
+    throw std::invalid_argument(std::string(name) + ": expected a finite value " + (zero_ok ? ">= 0" : "> 0") +
+                                ", got " + std::to_string(v));
+}
+
+// Every DOF at its lower limit, middle and upper limit (one value when the range is empty).
+std::vector<Eigen::VectorXd> corner_samples(const Eigen::VectorXd& lo, const Eigen::VectorXd& hi) {
+  std::vector<std::vector<double>> axes;
+  for (Eigen::Index d = 0; d < lo.size(); ++d) {
+    std::vector<double> v{lo[d], (lo[d] + hi[d]) / 2.0, hi[d]};
+    std::sort(v.begin(), v.end());
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+    axes.push_back(v);
+  }
+  std::vector<Eigen::VectorXd> out;
+  std::vector<std::size_t> idx(axes.size(), 0);
+  for (;;) {
+    Eigen::VectorXd q(lo.size());
+    for (std::size_t d = 0; d < axes.size(); ++d) q[static_cast<Eigen::Index>(d)] = axes[d][idx[d]];
+    out.push_back(q);
+    std::size_t d = axes.size();
+    while (d > 0 && ++idx[d - 1] == axes[d - 1].size()) idx[--d] = 0;
+    if (d == 0) return out;
+  }
+}
+
+double largest_span(const Points& p) {
+  double s = 0.0;
+  for (Eigen::Index i = 0; i < p.rows(); ++i)
+    for (Eigen::Index j = i + 1; j < p.rows(); ++j) s = std::max(s, (p.row(i) - p.row(j)).squaredNorm());
+  return std::sqrt(s);
+}
+
+// Per-link unless every per-link pair is antipodal (its normals along the line joining the pair)
+// or there are fewer than 3 per-link samples: then no pair fixes the roll, and area samples do.
+ConstellationMode choose_mode(const Hand& hand, ConstellationChoice choice) {
+  if (choice == ConstellationChoice::PerLink) return ConstellationMode::PerLink;
+  if (choice == ConstellationChoice::Area) return ConstellationMode::Area;
+  const Eigen::VectorXd mid = (hand.dof_lower() + hand.dof_upper()) / 2.0;
+  const Constellation c = hand.constellation(mid, ConstellationMode::PerLink);
+  if (c.points.rows() < 3) return ConstellationMode::Area;
+  for (Eigen::Index i = 0; i < c.points.rows(); ++i)
+    for (Eigen::Index j = i + 1; j < c.points.rows(); ++j) {
+      Eigen::Vector3d d = (c.points.row(j) - c.points.row(i)).transpose();
+      const double n = d.norm();
+      if (n < 1e-9) continue;
+      d /= n;
+      if (std::abs(c.normals.row(i).dot(d)) < 0.95 || std::abs(c.normals.row(j).dot(d)) < 0.95)
+        return ConstellationMode::PerLink;
+    }
+  return ConstellationMode::Area;
+}
+
+}  // namespace
+
+void check_target_scale(const Mesh& target, double hand_span) {
+  // A hand grasps a part of an object at most about its own size: an object whose every extent is
+  // 50 times the hand's span (or whose largest is 200 times smaller) is at the wrong scale.
+  if (!target.vertices.rows()) return;
+  const Eigen::Vector3d extent = (target.vertices.colwise().maxCoeff() - target.vertices.colwise().minCoeff()).transpose();
+  const double smallest = extent.minCoeff(), largest = extent.maxCoeff();
+  const std::string name = target.source.empty() ? "target" : target.source;
+  char buf[512];
+  if (smallest > 50.0 * hand_span) {
+    std::snprintf(buf, sizeof buf,
+                  "%s: every extent of the target is at least %.4g m, %.0f times the hand's span of %.3g m; is the "
+                  "mesh in millimetres? Load it with scale=0.001 (CLI: --scale 0.001)",
+                  name.c_str(), smallest, smallest / hand_span, hand_span);
+    throw std::invalid_argument(buf);
+  }
+  if (largest < hand_span / 200.0) {
+    std::snprintf(buf, sizeof buf,
+                  "%s: the target is at most %.4g m across, 1/%.0f of the hand's span of %.3g m; is it scaled twice? "
+                  "Lengths are metres (CLI: --scale)",
+                  name.c_str(), largest, hand_span / largest, hand_span);
+    throw std::invalid_argument(buf);
+  }
+}
+
+std::vector<std::vector<double>> dof_axes(const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                                          const Eigen::VectorXd& steps) {
+  if (lower.size() != upper.size() || steps.size() != lower.size())
+    throw std::invalid_argument("steps: expected " + std::to_string(lower.size()) + " values, got " +
+                                std::to_string(steps.size()));
+  std::vector<std::vector<double>> out;
+  for (Eigen::Index d = 0; d < lower.size(); ++d) {
+    const double lo = lower[d], hi = upper[d], st = steps[d];
+    if (hi - lo <= 1e-12 || !(st > 0.0)) {
+      out.push_back({lo});
+      continue;
+    }
+    const long n = static_cast<long>(std::floor((hi - lo) / st + 1e-9));
+    std::vector<double> v;
+    for (long k = 0; k <= n; ++k) v.push_back(lo + st * static_cast<double>(k));
+    if (hi - v.back() > 1e-9 * std::max(1.0, std::abs(hi))) v.push_back(hi);
+    out.push_back(std::move(v));
+  }
+  return out;
+}
+
+std::vector<Eigen::VectorXd> dof_grid(const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                                      const Eigen::VectorXd& steps) {
+  const std::vector<std::vector<double>> axes = dof_axes(lower, upper, steps);
+  std::vector<Eigen::VectorXd> out;
+  std::vector<std::size_t> idx(axes.size(), 0);
+  for (;;) {
+    Eigen::VectorXd q(lower.size());
+    for (std::size_t d = 0; d < axes.size(); ++d) q[static_cast<Eigen::Index>(d)] = axes[d][idx[d]];
+    out.push_back(q);
+    std::size_t d = axes.size();
+    while (d > 0 && ++idx[d - 1] == axes[d - 1].size()) idx[--d] = 0;
+    if (d == 0) return out;
+  }
+}
+
+PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& free, const PlannerOptions& o) {
+  check_value("edge", o.edge, true);
+  check_value("d_max", o.d_max, true);
+  check_value("spacing", o.spacing, true);
+  check_value("gap", o.gap, true);
+  if (!std::isfinite(o.depth_tolerance)) throw std::invalid_argument("depth_tolerance: not finite");
+  if (!std::isfinite(o.backoff)) throw std::invalid_argument("backoff: not finite");
+  if (o.max_pairs < 1) throw std::invalid_argument("max_pairs: expected an integer >= 1");
+  if (o.max_area_samples < 3) throw std::invalid_argument("max_area_samples: expected an integer >= 3");
+  if (o.max_poses < 1) throw std::invalid_argument("max_poses: expected an integer >= 1");
+  if (o.threads < 0) throw std::invalid_argument("threads: expected an integer >= 0");
+  PlannerSetup s;
+  s.mode = choose_mode(hand, o.constellation);
+  const Eigen::VectorXd lo = hand.dof_lower(), hi = hand.dof_upper(), mid = (lo + hi) / 2.0;
+  Eigen::Vector3d extent = Eigen::Vector3d::Zero();
+  if (target.vertices.rows())
+    extent = (target.vertices.colwise().maxCoeff() - target.vertices.colwise().minCoeff()).transpose();
+  double edge = o.edge > 0.0 ? o.edge : (extent.minCoeff() > 0.0 ? std::min(0.005, extent.minCoeff() / 15.0) : 0.005);
+  const std::vector<Eigen::VectorXd> corners = corner_samples(lo, hi);
+  if (o.d_max > 0.0) {
+    s.d_max = o.d_max;
+  } else {
+    double span = 0.0;
+    for (const Eigen::VectorXd& q : corners) {
+      const Points p = s.mode == ConstellationMode::Area
+                           ? hand.constellation(q, ConstellationMode::Area, std::max(edge, 0.005)).points
+                           : hand.constellation(q, ConstellationMode::PerLink).points;
+      span = std::max(span, largest_span(p));
+    }
+    if (!(span > 0.0))
+      throw std::invalid_argument("hand " + hand.name() + ": its active surfaces give no two distinct samples");
+    s.d_max = span + edge;
+  }
+  check_target_scale(target, s.d_max);
+  if (o.edge <= 0.0) edge = std::max(edge, suggest_edge(target, s.d_max, o.max_pairs, free));
+  s.edge = edge;
+  if (s.mode == ConstellationMode::Area) {
+    if (o.spacing > 0.0) {
+      s.spacing = o.spacing;
+    } else {
+      double sp = s.edge;
+      for (int k = 0; k < 40; ++k) {
+        if (hand.constellation(mid, ConstellationMode::Area, sp).points.rows() <= o.max_area_samples) break;
+        sp *= 1.25;
+      }
+      s.spacing = sp;
+    }
+  }
+  for (const Eigen::VectorXd& q : corners) {
+    const Points p = hand.constellation(q, ConstellationMode::PerLink).points;
+    for (Eigen::Index i = 0; i < p.rows(); ++i) s.reach = std::max(s.reach, p.row(i).norm());
+  }
+  s.depth_tolerance = o.depth_tolerance >= 0.0 ? o.depth_tolerance : s.edge / 4.0;
+  s.backoff = o.backoff >= 0.0 ? o.backoff : s.reach / 2.0;
+  return s;
+}
+
+struct GraspPlanner::State {
+  State(const Hand& h, const Mesh& t, const Mask& f, const PlannerOptions& o, const PlannerSetup& s, TargetIndex i)
+      : hand(h), target(t), free(f), options(o), setup(s), index(std::move(i)) {}
+  Hand hand;
+  Mesh target;
+  Mask free;
+  PlannerOptions options;
+  PlannerSetup setup;
+  TargetIndex index;
+  std::unique_ptr<Aligner> aligner;
+  std::unique_ptr<GraspChecker> checker;
+  TorqueReference reference;
+  double seconds = 0.0;
+};
+
+GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& target, const Mask& free,
+                           const std::vector<Obstacle>& obstacles, const PlannerOptions& options) {
+  const auto t0 = Clock::now();
+  const PlannerSetup setup = resolve_planner(hand, target, free, options);
+  PairIndexOptions io;
+  io.d_max = setup.d_max;
+  io.max_pairs = options.max_pairs;
+  io.threads = options.threads;
+  auto s = std::make_shared<State>(hand, target, free.size() ? free : Mask::Constant(target.faces.rows(), true),
+                                   options, setup, build_target_index(target, setup.edge, free, io));
+  AlignerOptions ao;
+  ao.max_poses = options.max_poses;
+  ao.threads = options.threads;
+  s->aligner = std::make_unique<Aligner>(std::make_shared<const PairIndex>(s->index.index), ao);
+  CheckOptions co;
+  co.depth_tolerance = setup.depth_tolerance;
+  co.contact_gap = options.gap;
+  co.threads = options.threads;
+  s->checker = std::make_unique<GraspChecker>(hand, target, free, obstacles, co);
+  s->reference = torque_reference(target);
+  s->seconds = seconds_since(t0);
+  state_ = std::move(s);
+}
+
+const Hand& GraspPlanner::hand() const { return state_->hand; }
+const Mesh& GraspPlanner::target() const { return state_->target; }
+const Mask& GraspPlanner::free() const { return state_->free; }
+const PlannerSetup& GraspPlanner::setup() const { return state_->setup; }
+const PlannerOptions& GraspPlanner::options() const { return state_->options; }
+const TargetIndex& GraspPlanner::target_index() const { return state_->index; }
+const Aligner& GraspPlanner::aligner() const { return *state_->aligner; }
+const GraspChecker& GraspPlanner::checker() const { return *state_->checker; }
+const TorqueReference& GraspPlanner::reference() const { return state_->reference; }
+double GraspPlanner::setup_seconds() const { return state_->seconds; }
+
+Eigen::VectorXd GraspPlanner::steps(double step) const {
+  Eigen::VectorXd out = state_->hand.dof_step();
+  const auto& dofs = state_->hand.dofs();
+  if (step > 0.0)
+    for (std::size_t d = 0; d < dofs.size(); ++d)
+      if (!dofs[d].linear) out[static_cast<Eigen::Index>(d)] = step;
+  return out;
+}
+
+Constellation GraspPlanner::constellation(const Eigen::VectorXd& dofs) const {
+  const PlannerSetup& s = state_->setup;
+  return s.mode == ConstellationMode::Area ? state_->hand.constellation(dofs, ConstellationMode::Area, s.spacing)
+                                           : state_->hand.constellation(dofs, ConstellationMode::PerLink);
+}
+
+std::vector<AlignResult> GraspPlanner::align(const std::vector<Eigen::VectorXd>& samples) const {
+  std::vector<Constellation> cons;
+  cons.reserve(samples.size());
+  for (const Eigen::VectorXd& q : samples) cons.push_back(constellation(q));
+  return state_->aligner->align_many(cons);
+}
+
+PlanReport plan_samples(const GraspPlanner& planner, const std::vector<Eigen::VectorXd>& samples,
+                        const PlanOptions& o) {
+  if (o.poses_per_sample < 1 || o.poses_per_sample > planner.options().max_poses)
+    throw std::invalid_argument("poses_per_sample: expected an integer in [1, " +
+                                std::to_string(planner.options().max_poses) + "], got " +
+                                std::to_string(o.poses_per_sample));
+  if (o.chunk < 1) throw std::invalid_argument("chunk: expected an integer >= 1, got " + std::to_string(o.chunk));
+  check_value("step", o.step, true);
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    try {
+      planner.hand().link_poses(samples[k]);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument("samples[" + std::to_string(k) + "]: " + e.what());
+    }
+  }
+  PlanReport report;
+  for (const char* k : {"samples", "aligned_poses", "settled", "settled_aligned", "evaluated", "force_closure"})
+    report.counts[k] = 0;
+  for (const char* k : {"align", "settle", "evaluate", "fine_tune"}) report.timings[k] = 0.0;
+  const PlannerSetup& setup = planner.setup();
+  PipelineOptions po;
+  po.edge = setup.edge;
+  po.backoff = setup.backoff;
+  po.steps = planner.steps(o.step);
+  po.evaluate.quality.contact.mu = o.mu;
+  po.evaluate.quality.contact.edges = o.edges;
+  po.evaluate.reference = planner.reference();
+  po.evaluate.contacts_per_link = o.contacts_per_link;
+  po.max_evaluations = o.max_evaluations;
+  po.threads = planner.options().threads;
+  CandidatePipeline pipe(planner.checker(), po);
+
+  // A chunk at a time, aligned 64 samples per call, as the Python Planner does.
+  constexpr std::size_t kAlignBatch = 64;
+  const std::size_t chunk = static_cast<std::size_t>(o.chunk);
+  for (std::size_t b = 0; b < samples.size(); b += chunk) {
+    const std::size_t e = std::min(samples.size(), b + chunk);
+    auto t0 = Clock::now();
+    std::vector<Candidate> cands;
+    for (std::size_t a = b; a < e; a += kAlignBatch) {
+      const std::vector<Eigen::VectorXd> part(samples.begin() + static_cast<long>(a),
+                                              samples.begin() + static_cast<long>(std::min(e, a + kAlignBatch)));
+      const std::vector<AlignResult> aligned = planner.align(part);
+      for (std::size_t i = 0; i < part.size(); ++i) {
+        const auto& poses = aligned[i].poses;
+        for (std::size_t k = 0; k < poses.size() && static_cast<int>(k) < o.poses_per_sample; ++k) {
+          Candidate c;
+          c.sample = static_cast<int>(a + i);
+          c.pose.linear() = poses[k].rotation;
+          c.pose.translation() = poses[k].translation;
+          c.dofs = part[i];
+          c.quality = poses[k].quality;
+          c.votes = poses[k].votes;
+          cands.push_back(std::move(c));
+        }
+      }
+    }
+    report.timings["align"] += seconds_since(t0);
+    report.counts["samples"] += static_cast<long>(e - b);
+    report.counts["aligned_poses"] += static_cast<long>(cands.size());
+    const ChunkReport r = pipe.process(cands);
+    report.counts["settled"] += r.settled;
+    report.counts["settled_aligned"] += r.settled_aligned;
+    report.counts["evaluated"] += r.evaluated;
+    report.timings["settle"] += r.settle_seconds;
+    report.timings["evaluate"] += r.evaluate_seconds;
+  }
+  const auto t0 = Clock::now();
+  FinishOptions fo;
+  fo.top = o.top;
+  fo.fine_tune = o.fine_tune;
+  fo.fine_tune_iterations = o.fine_tune_iterations;
+  fo.seed = o.seed;
+  report.grasps = pipe.finish(fo);
+  report.timings["fine_tune"] = seconds_since(t0);
+  report.candidates = pipe.evaluated();
+  for (const EvaluatedCandidate& c : report.candidates) report.counts["force_closure"] += c.evaluation.quality.force_closure;
+  return report;
+}
+
+}  // namespace pairgrasp
