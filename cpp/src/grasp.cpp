@@ -121,10 +121,12 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
     const std::vector<int>& moving = I.dof_links[k];
     if (dir == 0 || moving.empty()) continue;
 
+    // The distance of the moving links, or (distance fields) a lower bound of it beyond the
+    // gap: every decision below compares it with the gap or 0, so it is exact where it matters.
     auto distance_at = [&](const Eigen::VectorXd& qq, bool active) {
       const std::vector<Pose> poses = I.target_frame_poses(wrist, qq);
       double d = std::numeric_limits<double>::infinity();
-      for (int l : moving) d = std::min(d, I.link_distance(l, poses[l], active));
+      for (int l : moving) d = std::min(d, I.link_clearance(l, poses[l], active, gap));
       ++r.iterations;
       return d;
     };
@@ -196,6 +198,11 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
       }
     }
     r.reasons[k] = reason;
+    if (I.options.use_distance_field && d > gap) {  // maybe a lower bound: measure it
+      const std::vector<Pose> poses = I.target_frame_poses(wrist, q);
+      d = std::numeric_limits<double>::infinity();
+      for (int l : moving) d = std::min(d, I.link_distance(l, poses[l], false));
+    }
     r.clearance[k] = d;
   }
   r.dofs = q;
