@@ -466,9 +466,18 @@ double GraspChecker::Impl::link_clearance(int l, const Pose& pose, bool active, 
   const vd::SphereTree& tree = active ? L.active_surface : L.surface;
   const vd::SceneModel& T = scene[0];
   if (!options.use_distance_field || !T.field || tree.empty()) return link_distance(l, pose, active);
+  const DistanceField& F = *T.field;
+  auto exact_value = [&] {
+    // Surfaces certainly crossing: FCL finds the intersection, and link_distance() says 0 (the
+    // components of the whole surface are connected; the active faces' need not be).
+    if (!active)
+      for (std::int32_t root : tree.roots)
+      if (classify(tree, root, pose, [&](const Vec3& p) { return field_interval(F, p); }, kMargin) == kCross) return 0.0;
+    return link_distance(l, pose, active);
+  };
+  if (!std::isfinite(above)) return exact_value();
   // Lower bound of the target's unsigned distance over the link surface: descend only the balls
   // that may come within `above`.
-  const DistanceField& F = *T.field;
   double bound = std::numeric_limits<double>::infinity();
   std::vector<std::int32_t>& stack = scratch().stack;
   stack.assign(tree.roots.begin(), tree.roots.end());
@@ -486,7 +495,7 @@ double GraspChecker::Impl::link_clearance(int l, const Pose& pose, bool active, 
     if (n.left < 0) certain = false;
     else stack.push_back(n.left + 1), stack.push_back(n.left);
   }
-  if (!certain) return link_distance(l, pose, active);
+  if (!certain) return exact_value();
   // The obstacles through FCL, as link_distance() measures them.
   const vd::FclModel* model = active ? L.fcl_active.get() : L.fcl.get();
   for (std::size_t s = 1; s < scene.size(); ++s) {
@@ -497,7 +506,7 @@ double GraspChecker::Impl::link_clearance(int l, const Pose& pose, bool active, 
     fcl::DistanceRequestd dreq;
     fcl::DistanceResultd dres;
     const double d = fcl::distance(model, pose, scene[s].fcl.get(), Pose::Identity(), dreq, dres);
-    if (std::max(d, 0.0) <= above) return link_distance(l, pose, active);
+    if (std::max(d, 0.0) <= above) return exact_value();
     bound = std::min(bound, std::max(d, 0.0));
   }
   if (exact) *exact = false;

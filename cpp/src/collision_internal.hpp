@@ -208,8 +208,8 @@ struct GraspChecker::Impl {
   /// inf when it has none) and the target and obstacles; 0 when they intersect.
   double link_distance(int l, const Pose& pose, bool active) const;
   /// link_distance(), or, where the target's distance field shows that it exceeds `above` (m), a
-  /// lower bound of it that exceeds `above` (then `exact` is set false). Without the fields:
-  /// link_distance().
+  /// lower bound of it that exceeds `above` (then `exact` is set false); 0 without an FCL query
+  /// where the field shows the surfaces crossing. Without the fields: link_distance().
   double link_clearance(int l, const Pose& pose, bool active, double above, bool* exact = nullptr) const;
 };
 
