@@ -3,7 +3,8 @@
 // Also reports the checker's build time, the share of candidates pruned, and the closing time,
 // and compares the distance-field check with the exact one (use_distance_field = false) on the
 // same poses: these candidates and as many near-contact poses (a random link point put 3 mm inside
-// .. 2 mm outside a random target surface point), time per check, ratio and differing decisions.
+// .. 2 mm outside a random target surface point), time per check, ratio and differing decisions;
+// and the same for closing (close_fingers) and contacts (find_contacts) on the kept candidates.
 //
 // Candidates: the palm faces the target's centre from a random direction, its top 0..120 mm in
 // front of the target's extent along that direction, with a random roll and random DOFs within
@@ -156,6 +157,53 @@ void print_field_comparison() {
   }
 }
 
+bool same_contacts(const Contacts& a, const Contacts& b) {
+  return a.points == b.points && a.target_points == b.target_points && a.normals == b.normals &&
+         a.distances == b.distances && a.faces == b.faces && a.links == b.links && a.occluded_count == b.occluded_count;
+}
+
+// Closing (close_fingers) and the contacts of the closed grasp, exact against field, on the
+// candidates the exact check keeps: time per call, closings whose reasons or final decisions
+// differ, the largest difference of the closed DOFs, and contact sets that differ.
+void print_close_comparison() {
+  std::printf("\nClosing and contacts, distance field against exact, serial, candidates kept by the check\n");
+  std::printf("%-6s %6s %12s %12s %8s %9s %10s %11s %11s %8s %8s\n", "target", "kept", "close ex ms", "close fd ms",
+              "ratio", "differ", "max dq", "contact ex", "contact fd", "ratio", "differ");
+  for (const char* t : kTargets) {
+    Scene& s = scene(t);
+    std::vector<int> kept;
+    for (int k = 0; k < kCandidates; ++k)
+      if (!s.exact->check(s.wrists[k], s.dofs[k]).pruned) kept.push_back(k);
+    std::vector<CloseResult> a, b;
+    auto t0 = std::chrono::steady_clock::now();
+    for (int k : kept) a.push_back(close_fingers(*s.exact, s.wrists[k], s.dofs[k]));
+    const double te = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    t0 = std::chrono::steady_clock::now();
+    for (int k : kept) b.push_back(close_fingers(*s.checker, s.wrists[k], s.dofs[k]));
+    const double tf = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    int differ = 0;
+    double dq = 0.0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      differ += a[i].reasons != b[i].reasons || a[i].check.pruned != b[i].check.pruned ||
+                a[i].check.penetrating != b[i].check.penetrating || a[i].check.collision != b[i].check.collision;
+      dq = std::max(dq, (a[i].dofs - b[i].dofs).cwiseAbs().maxCoeff());
+    }
+    // Contacts at the exactly closed DOFs, both ways.
+    std::vector<Contacts> ca, cb;
+    t0 = std::chrono::steady_clock::now();
+    for (std::size_t i = 0; i < kept.size(); ++i) ca.push_back(find_contacts(*s.exact, s.wrists[kept[i]], a[i].dofs));
+    const double tce = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    t0 = std::chrono::steady_clock::now();
+    for (std::size_t i = 0; i < kept.size(); ++i) cb.push_back(find_contacts(*s.checker, s.wrists[kept[i]], a[i].dofs));
+    const double tcf = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    int cdiffer = 0;
+    for (std::size_t i = 0; i < kept.size(); ++i) cdiffer += !same_contacts(ca[i], cb[i]);
+    const double n = std::max<double>(1.0, static_cast<double>(kept.size()));
+    std::printf("%-6s %6zu %12.2f %12.2f %8.1f %9d %10.2g %11.3f %11.3f %8.1f %8d\n", t, kept.size(), 1e3 * te / n,
+                1e3 * tf / n, te / tf, differ, dq, 1e3 * tce / n, 1e3 * tcf / n, tce / tcf, cdiffer);
+  }
+}
+
 void BM_CheckSerial(benchmark::State& state, const char* name) {
   Scene& s = scene(name);
   for (auto _ : state)
@@ -238,6 +286,7 @@ int main(int argc, char** argv) {
                 close == rec.seconds.end() ? 0.0 : 1e3 * close->second);
   }
   print_field_comparison();
+  print_close_comparison();
   benchmark::Shutdown();
   return 0;
 }

@@ -1,15 +1,22 @@
 // GraspChecker on distance fields: the same flags as the exact checks, the exact queries
 // deciding wherever a field's bounds do not.
+//
+// Per link and target: (1) the link's sphere tree against the target's field classifies each
+// link component as certainly outside, certainly inside or certainly crossing the target's
+// surface (FCL decides the rest); (2) one best-first search over both sample trees (target
+// samples inside the link, link samples inside the target) bounds the largest depth, refining
+// with the exact signed distance only the samples whose bounds straddle what must be decided
+// (inside or not, beyond the tolerance or not, the depth to within the field's error).
 #include <pairgrasp/collision.hpp>
 
 #include "collision_internal.hpp"
 
 #include <fcl/narrowphase/collision.h>
+#include <fcl/narrowphase/distance.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <queue>
 
 namespace pairgrasp {
 
@@ -32,64 +39,69 @@ Interval LinkDistance::at(const Vec3& q) const {
   return {v, v - slack, std::numeric_limits<double>::infinity(), false};
 }
 
-template <class Sd, class Refine>
-DepthBounds deepest_bounds(const SurfaceSamples& samples, const Pose& to_b, const Eigen::AlignedBox3d& b_bounds,
-                           const std::vector<char>& components, Sd&& sd, Refine&& refine, double stop) {
-  DepthBounds out;
-  const Bvh& tree = samples.tree;
-  if (tree.empty()) return out;
-  // Without a stop the depth is made exact: every sample that may be the deepest (its depth's
-  // upper bound reaches the certain lower bound) is kept, nodes are pruned against the lower
-  // bound only, and the kept samples are measured exactly at the end.
-  const bool exact = !std::isfinite(stop);
-  std::vector<std::pair<double, Vec3>> candidates;  // (upper bound of the depth, point)
-  // Best first by the deepest any sample of a node could be: sd >= lower(centre) - radius.
-  struct Entry {
-    double bound;
-    std::int32_t node;
-    bool operator<(const Entry& o) const { return bound < o.bound || (bound == o.bound && node > o.node); }
-  };
-  std::priority_queue<Entry> queue;
-  auto beaten = [&](double bound) { return bound <= 0.0 || bound <= (exact ? out.lo : out.hi); };
-  auto push = [&](std::int32_t index) {
-    const BvhNode& node = tree.nodes[index];
-    const Vec3 lo(node.lo[0], node.lo[1], node.lo[2]), hi(node.hi[0], node.hi[1], node.hi[2]);
-    const double radius = 0.5 * (hi - lo).norm();
-    const Vec3 c = to_b * (0.5 * (lo + hi));
-    if (box_dist2(c, b_bounds.min().data(), b_bounds.max().data()) > radius * radius) return;
-    const double bound = radius - sd(c).lower;
-    if (!beaten(bound)) queue.push({bound, index});
-  };
-  push(0);
-  while (!queue.empty()) {
-    const Entry e = queue.top();
-    queue.pop();
-    if (beaten(e.bound)) break;
-    const BvhNode& node = tree.nodes[e.node];
-    if (node.count == 0) {
-      push(node.first);
-      push(node.first + 1);
-      continue;
-    }
-    for (std::int32_t k = node.first; k < node.first + node.count; ++k) {
-      const int i = tree.order[k];
-      if (!components.empty() && !components[samples.component[i]]) continue;
-      const Vec3 p = to_b * Vec3(samples.points.row(i).transpose());
-      if (!b_bounds.contains(p)) continue;
-      const Interval v = sd(p);
-      if (v.lower >= 0.0) continue;
-      out.est = std::max(out.est, -v.value);
-      out.lo = std::max(out.lo, -v.upper);
-      out.hi = std::max(out.hi, -v.lower);
-      if (exact) candidates.emplace_back(-v.lower, p);
-      if (out.lo > stop) return out;
+SphereTree make_sphere_tree(const Mesh& mesh, const std::vector<int>& faces, double leaf_radius) {
+  SphereTree out;
+  std::vector<int> fs = faces;
+  if (fs.empty())
+    for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) fs.push_back(static_cast<int>(f));
+  int count = 0;
+  const std::vector<int> comp = vertex_components(mesh.vertices, mesh.faces, count);
+  // Pieces per component: split the longest edge until the circumradius about the centroid fits.
+  std::vector<std::vector<Tri>> pieces(count);
+  for (int f : fs) {
+    std::vector<Tri> stack{{Vec3(mesh.vertices.row(mesh.faces(f, 0)).transpose()),
+                            Vec3(mesh.vertices.row(mesh.faces(f, 1)).transpose()),
+                            Vec3(mesh.vertices.row(mesh.faces(f, 2)).transpose())}};
+    std::vector<Tri>& into = pieces[comp[mesh.faces(f, 0)]];
+    while (!stack.empty()) {
+      const Tri t = stack.back();
+      stack.pop_back();
+      const Vec3 m = (t[0] + t[1] + t[2]) / 3.0;
+      const double r2 = std::max({(t[0] - m).squaredNorm(), (t[1] - m).squaredNorm(), (t[2] - m).squaredNorm()});
+      if (r2 <= leaf_radius * leaf_radius) {
+        into.push_back(t);
+        continue;
+      }
+      int e = 0;  // longest edge (e, e+1)
+      double best = -1.0;
+      for (int k = 0; k < 3; ++k) {
+        const double len = (t[(k + 1) % 3] - t[k]).squaredNorm();
+        if (len > best) best = len, e = k;
+      }
+      const Vec3 mid = 0.5 * (t[e] + t[(e + 1) % 3]);
+      stack.push_back({t[e], mid, t[(e + 2) % 3]});
+      stack.push_back({mid, t[(e + 1) % 3], t[(e + 2) % 3]});
     }
   }
-  if (exact) {
-    double deepest = 0.0;
-    for (const auto& [bound, p] : candidates)
-      if (bound >= out.lo && bound > deepest) deepest = std::max(deepest, -refine(p, sd(p)));
-    out.est = out.lo = out.hi = deepest;
+  for (const std::vector<Tri>& ps : pieces) {
+    if (ps.empty()) continue;
+    std::vector<Eigen::AlignedBox3d> boxes(ps.size());
+    for (std::size_t i = 0; i < ps.size(); ++i)
+      for (const Vec3& v : ps[i]) boxes[i].extend(v);
+    Bvh tree;
+    tree.build(boxes, 1);
+    const std::int32_t base = static_cast<std::int32_t>(out.nodes.size());
+    out.roots.push_back(base);
+    out.nodes.resize(base + tree.nodes.size());
+    // Piece ranges of every node (children after parents in the tree: fill bottom-up).
+    std::vector<std::pair<std::int32_t, std::int32_t>> range(tree.nodes.size());
+    for (std::size_t n = tree.nodes.size(); n-- > 0;) {
+      const BvhNode& b = tree.nodes[n];
+      range[n] = b.count > 0 ? std::make_pair(b.first, b.first + b.count)
+                             : std::make_pair(range[b.first].first, range[b.first + 1].second);
+    }
+    for (std::size_t n = 0; n < tree.nodes.size(); ++n) {
+      const BvhNode& b = tree.nodes[n];
+      SphereTree::Node& node = out.nodes[base + n];
+      node.centre = 0.5 * (Vec3(b.lo[0], b.lo[1], b.lo[2]) + Vec3(b.hi[0], b.hi[1], b.hi[2]));
+      double r2 = 0.0;
+      for (std::int32_t k = range[n].first; k < range[n].second; ++k)
+        for (const Vec3& v : ps[tree.order[k]]) r2 = std::max(r2, (v - node.centre).squaredNorm());
+      node.radius = std::sqrt(r2) * (1.0 + 1e-12) + 1e-15;
+      const Tri& first = ps[tree.order[range[n].first]];
+      node.rep = (first[0] + first[1] + first[2]) / 3.0;
+      node.left = b.count > 0 ? -1 : base + b.first;
+    }
   }
   return out;
 }
@@ -104,6 +116,8 @@ void GraspChecker::Impl::build_fields() {
     for (Eigen::Index f = 0; f < m.faces.rows(); ++f)
       L.tris.push_back({Vec3(m.vertices.row(m.faces(f, 0)).transpose()), Vec3(m.vertices.row(m.faces(f, 1)).transpose()),
                         Vec3(m.vertices.row(m.faces(f, 2)).transpose())});
+    L.surface = vd::make_sphere_tree(m, {}, cell);
+    if (L.link->active()) L.active_surface = vd::make_sphere_tree(m, L.link->active_faces, cell);
     if (!L.query->closed()) continue;
     // Convex when every vertex lies on the inner side of every face's plane.
     const double eps = 1e-9 * L.bounds.diagonal().norm();
@@ -113,9 +127,13 @@ void GraspChecker::Impl::build_fields() {
       const double d = n.dot(t[0]);
       for (Eigen::Index v = 0; v < m.vertices.rows() && convex; ++v)
         convex = n.dot(Vec3(m.vertices.row(v).transpose())) - d <= eps;
-      L.distance.planes.emplace_back(n.x(), n.y(), n.z(), d);
+      // Coplanar faces give one plane.
+      const Eigen::Vector4d pl(n.x(), n.y(), n.z(), d);
+      bool seen = false;
+      for (const Eigen::Vector4d& q : L.distance.planes) seen = seen || (q - pl).cwiseAbs().maxCoeff() <= 1e-12;
+      if (!seen) L.distance.planes.push_back(pl);
     }
-    L.distance.slack = 2.0 * L.query->surface_tolerance() + 4.0 * eps;
+    L.distance.slack = 2.0 * L.query->surface_tolerance() + 4.0 * eps + 1e-12;
     if (convex) continue;
     L.distance.planes.clear();
     DistanceFieldOptions fo;
@@ -151,9 +169,10 @@ void GraspChecker::Impl::build_fields() {
 }
 
 namespace {
-
 constexpr double kMargin = 1e-7;  // decisions at 0 are left to the exact path within this (m)
-constexpr int kSplits = 64;       // triangle splits before an undecided surface test goes exact
+constexpr int kUndecidedVisits = 48;  // nodes visited after an undecided leaf before giving up
+constexpr std::size_t kClassifyVisits = 256;
+constexpr int kDiveVisits = 96;  // nodes of the depth-first dive for a sample beyond the stop depth  // nodes classified before FCL decides
 
 // Whether p is strictly inside (signed distance < 0, as the exact query says), from the bounds
 // when they decide, else from the exact query.
@@ -164,15 +183,201 @@ bool strictly_inside(const Interval& v, double on_surface, Exact&& exact) {
   return exact() < 0.0;
 }
 
-std::vector<vd::Tri> moved(const std::vector<vd::Tri>& tris, const Pose& pose) {
-  std::vector<vd::Tri> out(tris.size());
-  for (std::size_t i = 0; i < tris.size(); ++i) out[i] = {pose * tris[i][0], pose * tris[i][1], pose * tris[i][2]};
-  return out;
-}
-
 Interval field_interval(const DistanceField& f, const Vec3& p) {
   const FieldSample s = f.sample(p);
   return {s.value, s.lower, s.upper, s.in_band};
+}
+
+// Scratch buffers of one thread (checks run on several threads; each uses its own).
+struct Scratch {
+  std::vector<std::int32_t> stack;
+  struct Entry {
+    double bound;
+    std::int32_t index;  // node, or sample when `sample`
+    std::int8_t source;
+    bool sample;
+  };
+  std::vector<Entry> heap;
+  std::vector<char> comp_link, comp_target;
+};
+Scratch& scratch() {
+  thread_local Scratch s;
+  return s;
+}
+
+enum Side : int { kOut = 0, kIn = 1, kCross = 2, kUndecided = -1 };
+
+// One component (tree root) of a surface moved by `pose` against a 1-Lipschitz f with bounds
+// `f(p)`: kOut when f > m everywhere on it, kIn when f < -m everywhere, kCross when some point
+// has f < -m and another f > m (connected: the surface crosses f = 0), else kUndecided.
+template <class F>
+int classify(const vd::SphereTree& t, std::int32_t root, const Pose& pose, F&& f, double m) {
+  // Breadth first: the representative points of the upper levels spread over the surface, so
+  // that a crossing shows early.
+  std::vector<std::int32_t>& queue = scratch().stack;
+  queue.assign(1, root);
+  bool in = false, out = false, undecided = false;
+  for (std::size_t head = 0; head < queue.size(); ++head) {
+    const vd::SphereTree::Node& n = t.nodes[queue[head]];
+    if (head >= kClassifyVisits) {
+      undecided = true;
+      break;
+    }
+    const Interval c = f(pose * n.centre);
+    if (c.lower - n.radius > m) {
+      out = true;
+    } else if (c.upper + n.radius < -m) {
+      in = true;
+    } else {
+      const Interval r = f(pose * n.rep);
+      in = in || r.upper < -m;
+      out = out || r.lower > m;
+      if (n.left < 0) undecided = true;
+      else queue.push_back(n.left), queue.push_back(n.left + 1);
+    }
+    if (in && out) return kCross;
+  }
+  if (undecided) return kUndecided;
+  return out ? kOut : kIn;
+}
+
+// Whether some point of the surface (moved by `pose`) has f <= gap (f: an unsigned distance
+// with bounds `f(p)`): 1 certainly, 0 certainly not, -1 undecided.
+template <class F>
+int touches(const vd::SphereTree& t, const Pose& pose, F&& f, double gap) {
+  std::vector<std::int32_t>& stack = scratch().stack;
+  stack.assign(t.roots.begin(), t.roots.end());
+  bool undecided = false;
+  int after = 0;
+  while (!stack.empty()) {
+    const vd::SphereTree::Node& n = t.nodes[stack.back()];
+    stack.pop_back();
+    if (undecided && ++after > kUndecidedVisits) break;
+    const Interval c = f(pose * n.centre);
+    if (c.lower - n.radius > gap) continue;
+    if (f(pose * n.rep).upper <= gap) return 1;
+    if (n.left < 0) undecided = true;
+    else stack.push_back(n.left + 1), stack.push_back(n.left);
+  }
+  return undecided ? -1 : 0;
+}
+
+// A sample set searched for its deepest point inside a solid B (samples mapped into B's frame
+// by `to_b`, only those in `b_bounds` and, unless `components` is null, in flagged components).
+struct Source {
+  const vd::SurfaceSamples* samples = nullptr;
+  Pose to_b;
+  Eigen::AlignedBox3d b_bounds;
+  const std::vector<char>* components = nullptr;
+};
+
+// Largest depth M = max(0, max -sd) over the samples of the sources inside B, best first:
+// `sd(source, p)` bounds B's signed distance, `refine(source, p, interval)` gives it exactly. The
+// search ends once lo > stop, or when M's relation to 0 and to `tol` is certain and M is known to
+// within `err` (the interpolation error of tight bounds: est = the largest tight estimate, exact
+// value or certain lower bound, whichever is larger).
+template <class Sd, class Refine>
+vd::DepthBounds deepest(const Source* sources, int count, Sd&& sd, Refine&& refine, double tol, double err,
+                        double stop) {
+  using Entry = Scratch::Entry;
+  std::vector<Entry>& heap = scratch().heap;
+  heap.clear();
+  auto less = [](const Entry& a, const Entry& b) {
+    return a.bound < b.bound || (a.bound == b.bound && (a.source > b.source || (a.source == b.source && a.index > b.index)));
+  };
+  double lo = 0.0, est = 0.0;
+  auto push = [&](const Entry& e) {
+    heap.push_back(e);
+    std::push_heap(heap.begin(), heap.end(), less);
+  };
+  auto push_node = [&](int s, std::int32_t index) {
+    const Source& S = sources[s];
+    const vd::BvhNode& node = S.samples->tree.nodes[index];
+    const Vec3 lo3(node.lo[0], node.lo[1], node.lo[2]), hi3(node.hi[0], node.hi[1], node.hi[2]);
+    const double radius = 0.5 * (hi3 - lo3).norm();
+    const Vec3 c = S.to_b * (0.5 * (lo3 + hi3));
+    if (vd::box_dist2(c, S.b_bounds.min().data(), S.b_bounds.max().data()) > radius * radius) return;
+    const double bound = radius - sd(s, c).lower;
+    if (bound > 0.0 && bound > lo) push({bound, index, static_cast<std::int8_t>(s), false});
+  };
+  auto point = [&](int s, std::int32_t i) { return Vec3(sources[s].to_b * Vec3(sources[s].samples->points.row(i).transpose())); };
+  // Leaf samples: lo, est, and (when `keep`) the samples that may matter, for refinement.
+  auto visit_leaf = [&](int s, const vd::BvhNode& node, bool keep) {
+    const Source& S = sources[s];
+    for (std::int32_t k = node.first; k < node.first + node.count; ++k) {
+      const int i = S.samples->tree.order[k];
+      if (S.components && !(*S.components)[S.samples->component[i]]) continue;
+      const Vec3 p = point(s, i);
+      if (!S.b_bounds.contains(p)) continue;
+      const Interval v = sd(s, p);
+      if (v.lower >= 0.0) continue;
+      lo = std::max(lo, -v.upper);
+      est = std::max(est, v.tight ? -v.value : -v.upper);
+      // Kept while it may matter: refined when it tops the queue.
+      if (keep && -v.lower > lo && v.lower != v.upper) push({-v.lower, i, static_cast<std::int8_t>(s), true});
+    }
+  };
+  if (std::isfinite(stop)) {
+    // Looking for one sample certainly deeper than `stop`: depth first, the deeper child first,
+    // for a bounded number of nodes; the best-first search below takes over when that fails.
+    std::vector<std::int32_t>& stack = scratch().stack;
+    int visits = 0;
+    for (int s = 0; s < count && lo <= stop; ++s) {
+      const Source& S = sources[s];
+      if (S.samples->tree.empty()) continue;
+      auto bound_of = [&](std::int32_t index) {
+        const vd::BvhNode& node = S.samples->tree.nodes[index];
+        const Vec3 lo3(node.lo[0], node.lo[1], node.lo[2]), hi3(node.hi[0], node.hi[1], node.hi[2]);
+        const double radius = 0.5 * (hi3 - lo3).norm();
+        const Vec3 c = S.to_b * (0.5 * (lo3 + hi3));
+        if (vd::box_dist2(c, S.b_bounds.min().data(), S.b_bounds.max().data()) > radius * radius) return -1.0;
+        return radius - sd(s, c).lower;
+      };
+      stack.assign(1, 0);
+      while (!stack.empty() && lo <= stop && visits < kDiveVisits) {
+        const vd::BvhNode& node = S.samples->tree.nodes[stack.back()];
+        stack.pop_back();
+        ++visits;
+        if (node.count > 0) {
+          visit_leaf(s, node, false);
+          continue;
+        }
+        const double a = bound_of(node.first), b = bound_of(node.first + 1);
+        const std::int32_t deeper = a >= b ? node.first : node.first + 1, other = a >= b ? node.first + 1 : node.first;
+        if (std::min(a, b) > stop) stack.push_back(other);
+        if (std::max(a, b) > stop) stack.push_back(deeper);
+      }
+    }
+    if (lo > stop) return {lo, lo, lo};
+  }
+  for (int s = 0; s < count; ++s)
+    if (!sources[s].samples->tree.empty()) push_node(s, 0);
+  double hi = 0.0;
+  while (true) {
+    hi = heap.empty() ? lo : std::max(lo, heap.front().bound);
+    if (lo > stop) break;
+    const bool inside_known = lo > 0.0 || hi <= 0.0;
+    const bool tol_known = lo > tol || hi <= tol;
+    if (inside_known && tol_known && hi <= est + err) break;
+    std::pop_heap(heap.begin(), heap.end(), less);
+    const Entry e = heap.back();
+    heap.pop_back();
+    const Source& S = sources[e.source];
+    if (e.sample) {
+      const Vec3 p = point(e.source, e.index);
+      const double d = -refine(e.source, p, sd(e.source, p));
+      if (d > 0.0) lo = std::max(lo, d), est = std::max(est, d);
+      continue;
+    }
+    const vd::BvhNode& node = S.samples->tree.nodes[e.index];
+    if (node.count == 0) {
+      push_node(e.source, node.first);
+      push_node(e.source, node.first + 1);
+      continue;
+    }
+    visit_leaf(e.source, node, true);
+  }
+  return {std::clamp(est, lo, hi), lo, hi};
 }
 
 }  // namespace
@@ -180,86 +385,132 @@ Interval field_interval(const DistanceField& f, const Vec3& p) {
 vd::PairCheck GraspChecker::Impl::field_pair(int l, const Pose& pose, int s, double stop) const {
   const vd::LinkModel& L = links[l];
   const vd::SceneModel& S = scene[s];
-  if (!S.field) return check_pair(l, pose, s, stop);
+  if (!S.field || L.surface.empty()) return check_pair(l, pose, s, stop);
   vd::PairCheck r;
   if (!vd::boxes_within(vd::transform_box(L.bounds, pose), S.bounds, options.contact_gap)) return r;
   r.near = true;
   const DistanceField& F = *S.field;
   auto target_sd = [&](const Vec3& p) { return field_interval(F, p); };
-  auto target_exact = [&](const Vec3& p, const Interval& v) {
-    return S.query->signed_distance_hint(p, std::max(std::abs(v.lower), std::abs(v.upper)));
-  };
 
-  // Triangle intersection. Clear when the link's surface lies certainly outside the target (then
-  // the surfaces cannot cross); certain when a connected link has points certainly on both sides.
-  const std::vector<vd::Tri> tris = moved(L.tris, pose);
-  const int reaches_in = vd::surface_below(tris, target_sd, -kMargin, kMargin, F.cell(), kSplits);
-  int crossing = -1;
-  if (reaches_in == 0) {
-    crossing = 0;
-  } else if (reaches_in == 1 && L.samples.component_rep.size() == 1) {
-    for (const vd::Tri& t : tris)
-      for (const Vec3& v : t)
-        if (F.sample(v).lower > kMargin) crossing = 1;
+  // Triangle intersection, per link component: certainly not when every component lies
+  // certainly outside or inside the target, certainly when one has points certainly on both
+  // sides; else FCL decides.
+  Scratch& sc = scratch();
+  std::vector<char>& comp_link = sc.comp_link;
+  comp_link.assign(L.samples.component_rep.size(), 0);
+  const bool comps_match = L.surface.roots.size() == comp_link.size();
+  int crossing = 0;
+  bool undecided = false, any_in = false;
+  for (std::size_t c = 0; c < L.surface.roots.size() && crossing == 0; ++c) {
+    const int side = classify(L.surface, L.surface.roots[c], pose, target_sd, kMargin);
+    if (side == kCross) crossing = 1;
+    else if (side == kUndecided) undecided = true;
+    else if (side == kIn && comps_match) comp_link[c] = any_in = true;
   }
-  if (crossing < 0) {
+  if (crossing == 0 && undecided) {
     fcl::CollisionRequestd request;
     fcl::CollisionResultd result;
     fcl::collide(L.fcl.get(), pose, S.fcl.get(), Pose::Identity(), request, result);
     crossing = result.isCollision() ? 1 : 0;
   }
-  r.intersecting = crossing == 1;
-
-  // Depth bounds, over the samples check_pair() counts.
-  vd::DepthBounds depth;
-  const Pose inv = pose.inverse();
-  if (L.query->closed()) {
-    const vd::SurfaceSamples& T = S.samples;
-    std::vector<char> comp_in;
-    const bool any = r.intersecting || vd::components_inside(T, inv, L.bounds, [&](const Vec3& q) {
-      return strictly_inside(L.distance.at(q), L.query->surface_tolerance(), [&] { return L.query->signed_distance(q); });
-    }, comp_in);
-    if (any)
-      depth = vd::deepest_bounds(
-          T, inv, L.bounds, comp_in, [&](const Vec3& q) { return L.distance.at(q); },
-          [&](const Vec3& q, const Interval& v) {
-            return L.query->signed_distance_hint(q, std::max(std::abs(v.lower), std::abs(v.value)) + F.cell());
-          },
-          stop);
-  }
-  if (depth.lo <= stop) {
-    std::vector<char> comp_in;
-    const bool any = r.intersecting || vd::components_inside(L.samples, pose, S.bounds, [&](const Vec3& p) {
-      return strictly_inside(target_sd(p), S.query->surface_tolerance(), [&] { return S.query->signed_distance(p); });
-    }, comp_in);
-    if (any) {
-      const vd::DepthBounds d = vd::deepest_bounds(L.samples, pose, S.bounds, comp_in, target_sd, target_exact, stop);
-      depth.est = std::max(depth.est, d.est);
-      depth.lo = std::max(depth.lo, d.lo);
-      depth.hi = std::max(depth.hi, d.hi);
+  if (crossing == 0 && (undecided || !comps_match)) {
+    {  // the components' representative vertices say which lie inside
+      any_in = vd::components_inside(L.samples, pose, S.bounds, [&](const Vec3& p) {
+        return strictly_inside(target_sd(p), S.query->surface_tolerance(), [&] { return S.query->signed_distance(p); });
+      }, comp_link);
     }
   }
-  // Decisions: inside (depth > 0) and, against the target, beyond the tolerance. Where the
-  // bounds straddle a threshold the exact search decides.
-  const double tol = options.depth_tolerance;
-  const bool inside_known = depth.lo > 0.0 || depth.hi <= 0.0;
-  const bool deep_known = S.obstacle || depth.lo > tol || depth.hi <= tol;
-  if (!inside_known || !deep_known) return check_pair(l, pose, s, stop);
+  r.intersecting = crossing == 1;
+
+  // Depth: target samples inside the (closed) link, link samples inside the target.
+  const Pose inv = pose.inverse();
+  Source sources[2];
+  int n = 0;
+  if (L.query->closed()) {
+    std::vector<char>& comp_target = sc.comp_target;
+    const bool any = r.intersecting || vd::components_inside(S.samples, inv, L.bounds, [&](const Vec3& q) {
+      return strictly_inside(L.distance.at(q), L.query->surface_tolerance(), [&] { return L.query->signed_distance(q); });
+    }, comp_target);
+    if (any) sources[n++] = {&S.samples, inv, L.bounds, r.intersecting ? nullptr : &comp_target};
+  }
+  if (r.intersecting || any_in) sources[n++] = {&L.samples, pose, S.bounds, r.intersecting ? nullptr : &comp_link};
+  if (n == 0) return r;
+  const vd::DepthBounds depth = deepest(
+      sources, n,
+      [&](int src, const Vec3& p) { return sources[src].samples == &L.samples ? target_sd(p) : L.distance.at(p); },
+      [&](int src, const Vec3& p, const Interval& v) {
+        const double hint = std::isfinite(v.upper) ? std::max(std::abs(v.lower), std::abs(v.upper))
+                                                   : std::numeric_limits<double>::infinity();
+        return sources[src].samples == &L.samples ? S.query->signed_distance_hint(p, hint)
+                                                  : L.query->signed_distance_hint(p, hint);
+      },
+      options.depth_tolerance, 0.5 * std::sqrt(3.0) * options.field_cell, stop);
   r.inside = depth.lo > 0.0;
   // Stopped early: the certain lower bound (beyond the tolerance), as the exact path reports one.
-  r.depth = !r.inside ? 0.0 : (depth.lo > stop ? depth.lo : std::clamp(depth.est, depth.lo, depth.hi));
+  r.depth = !r.inside ? 0.0 : (depth.lo > stop ? depth.lo : depth.est);
   return r;
 }
 
 bool GraspChecker::Impl::field_touches_occluded(int l, const Pose& pose) const {
-  if (!occluded_field) return touches_occluded(l, pose);
+  if (!occluded_field || links[l].surface.empty()) return touches_occluded(l, pose);
   const vd::LinkModel& L = links[l];
   if (!vd::boxes_within(vd::transform_box(L.bounds, pose), occluded_bounds, options.contact_gap)) return false;
   const DistanceField& F = *occluded_field;
-  const int touch = vd::surface_below(
-      moved(L.tris, pose), [&](const Vec3& p) { return field_interval(F, p); }, options.contact_gap,
-      options.contact_gap, F.cell(), kSplits);
+  const int touch = touches(L.surface, pose, [&](const Vec3& p) { return field_interval(F, p); }, options.contact_gap);
   return touch < 0 ? touches_occluded(l, pose) : touch == 1;
+}
+
+double GraspChecker::Impl::link_clearance(int l, const Pose& pose, bool active, double above, bool* exact) const {
+  if (exact) *exact = true;
+  const vd::LinkModel& L = links[l];
+  const vd::SphereTree& tree = active ? L.active_surface : L.surface;
+  const vd::SceneModel& T = scene[0];
+  if (!options.use_distance_field || !T.field || tree.empty()) return link_distance(l, pose, active);
+  const DistanceField& F = *T.field;
+  auto exact_value = [&] {
+    // Surfaces certainly crossing: FCL finds the intersection, and link_distance() says 0 (the
+    // components of the whole surface are connected; the active faces' need not be).
+    if (!active)
+      for (std::int32_t root : tree.roots)
+      if (classify(tree, root, pose, [&](const Vec3& p) { return field_interval(F, p); }, kMargin) == kCross) return 0.0;
+    return link_distance(l, pose, active);
+  };
+  if (!std::isfinite(above)) return exact_value();
+  // Lower bound of the target's unsigned distance over the link surface: descend only the balls
+  // that may come within `above`.
+  double bound = std::numeric_limits<double>::infinity();
+  std::vector<std::int32_t>& stack = scratch().stack;
+  stack.assign(tree.roots.begin(), tree.roots.end());
+  bool certain = true;
+  while (!stack.empty() && certain) {
+    const vd::SphereTree::Node& n = tree.nodes[stack.back()];
+    stack.pop_back();
+    const FieldSample f = F.sample(pose * n.centre);
+    const double b = std::max({f.lower, -f.upper, 0.0}) - n.radius;
+    // Split balls large against their distance too, for a bound close to the distance.
+    if (b > above && (n.left < 0 || n.radius <= 0.25 * b)) {
+      bound = std::min(bound, b);
+      continue;
+    }
+    if (n.left < 0) certain = false;
+    else stack.push_back(n.left + 1), stack.push_back(n.left);
+  }
+  if (!certain) return exact_value();
+  // The obstacles through FCL, as link_distance() measures them.
+  const vd::FclModel* model = active ? L.fcl_active.get() : L.fcl.get();
+  for (std::size_t s = 1; s < scene.size(); ++s) {
+    fcl::CollisionRequestd creq;
+    fcl::CollisionResultd cres;
+    fcl::collide(model, pose, scene[s].fcl.get(), Pose::Identity(), creq, cres);
+    if (cres.isCollision()) return 0.0;
+    fcl::DistanceRequestd dreq;
+    fcl::DistanceResultd dres;
+    const double d = fcl::distance(model, pose, scene[s].fcl.get(), Pose::Identity(), dreq, dres);
+    if (std::max(d, 0.0) <= above) return exact_value();
+    bound = std::min(bound, std::max(d, 0.0));
+  }
+  if (exact) *exact = false;
+  return bound;
 }
 
 }  // namespace pairgrasp

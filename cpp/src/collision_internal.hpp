@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdint>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -95,50 +96,29 @@ struct LinkDistance {
 /// A triangle (corners in some frame).
 using Tri = std::array<Vec3, 3>;
 
-/// Over the triangles of a surface, a 1-Lipschitz function f: +1 when some point certainly has
-/// f <= yes_at, 0 when every point certainly has f > clear_above (>= yes_at), -1 undecided.
-/// `bounds(p)` gives an Interval of f(p). A triangle's values lie within its circumradius R
-/// (about its centroid m) of f(m), so it is clear when lower(m) - R > clear_above and decides
-/// "yes" when upper(m) <= yes_at; otherwise it is split in four, down to `min_radius` (m) or
-/// `budget` splits.
-template <class Bounds>
-int surface_below(const std::vector<Tri>& tris, Bounds&& bounds, double yes_at, double clear_above,
-                  double min_radius, int budget = 2048) {
-  std::vector<Tri> stack(tris.rbegin(), tris.rend());
-  bool undecided = false;
-  while (!stack.empty()) {
-    const Tri t = stack.back();
-    stack.pop_back();
-    const Vec3 m = (t[0] + t[1] + t[2]) / 3.0;
-    const double R = std::sqrt(std::max({(t[0] - m).squaredNorm(), (t[1] - m).squaredNorm(), (t[2] - m).squaredNorm()}));
-    const Interval f = bounds(m);
-    if (f.upper <= yes_at) return 1;
-    if (f.lower - R > clear_above) continue;
-    if (R <= min_radius || --budget <= 0) {
-      undecided = true;
-      continue;
-    }
-    const Vec3 ab = 0.5 * (t[0] + t[1]), bc = 0.5 * (t[1] + t[2]), ca = 0.5 * (t[2] + t[0]);
-    stack.push_back({t[0], ab, ca});
-    stack.push_back({ab, t[1], bc});
-    stack.push_back({ca, bc, t[2]});
-    stack.push_back({ab, bc, ca});
-  }
-  return undecided ? -1 : 0;
-}
+/// Bounding balls of a surface: its triangles split (longest edge first) into pieces of
+/// circumradius at most a leaf radius, under a binary tree per connected component. A node's
+/// ball (centre, radius, in the mesh's frame) holds every piece below it (their corners, hence
+/// the pieces), and `rep` is a point of the surface in it (a piece's centroid).
+struct SphereTree {
+  struct Node {
+    Vec3 centre = Vec3::Zero();
+    Vec3 rep = Vec3::Zero();
+    double radius = 0.0;
+    std::int32_t left = -1;  ///< children left and left + 1; -1 for a leaf (one piece)
+  };
+  std::vector<Node> nodes;
+  std::vector<std::int32_t> roots;  ///< one per connected component with faces
+  bool empty() const { return nodes.empty(); }
+};
+/// Sphere tree of the given faces of `mesh` (all when `faces` is empty).
+SphereTree make_sphere_tree(const Mesh& mesh, const std::vector<int>& faces, double leaf_radius);
 
-/// Bounds of the largest depth of samples inside a solid B (see deepest_inside): `lo` <= exact
-/// <= `hi`, and `est` within the largest error of the values used (tight ones: the field's
-/// max_error()) of the exact depth. `sd(p)` gives an Interval of B's signed distance at p (B's
-/// frame); `refine(p)`, called for a sample whose bounds are not tight and that may be inside,
-/// gives its exact signed distance. Only samples of flagged `components` count (all when empty).
-/// Stops once lo > stop.
+/// Result of a depth search on bounds (see GraspChecker::Impl::field_pair): lo <= exact <= hi,
+/// est within the field's interpolation error of the exact depth.
 struct DepthBounds {
   double est = 0.0, lo = 0.0, hi = 0.0;
 };
-template <class Sd, class Refine>
-DepthBounds deepest_bounds(const SurfaceSamples& samples, const Pose& to_b, const Eigen::AlignedBox3d& b_bounds,
-                           const std::vector<char>& components, Sd&& sd, Refine&& refine, double stop);
 
 /// A hand link ready for checks.
 struct LinkModel {
@@ -152,6 +132,8 @@ struct LinkModel {
   Points contact_samples;                 ///< active-surface samples at contact_spacing, link frame
   LinkDistance distance;                  ///< signed distance bounds inside the link (closed links)
   std::vector<Tri> tris;                  ///< faces, link frame
+  SphereTree surface;                     ///< every face, link frame (distance fields only)
+  SphereTree active_surface;              ///< active faces, link frame (distance fields only)
 };
 
 /// The target or an obstacle.
@@ -234,6 +216,10 @@ struct GraspChecker::Impl {
   /// Smallest FCL distance (m) between link l at `pose` (its active faces only when `active`;
   /// inf when it has none) and the target and obstacles; 0 when they intersect.
   double link_distance(int l, const Pose& pose, bool active) const;
+  /// link_distance(), or, where the target's distance field shows that it exceeds `above` (m), a
+  /// lower bound of it that exceeds `above` (then `exact` is set false); 0 without an FCL query
+  /// where the field shows the surfaces crossing. Without the fields: link_distance().
+  double link_clearance(int l, const Pose& pose, bool active, double above, bool* exact = nullptr) const;
 };
 
 }  // namespace pairgrasp

@@ -121,13 +121,21 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
     const std::vector<int>& moving = I.dof_links[k];
     if (dir == 0 || moving.empty()) continue;
 
-    auto distance_at = [&](const Eigen::VectorXd& qq, bool active) {
+    // The distance of the moving links. With distance fields, where only its comparison with
+    // the gap matters (`above` = gap), a lower bound of it beyond the gap; elsewhere the exact
+    // value (0 at once where the field shows the surfaces crossing): the steps, hence the
+    // closed DOFs, are those of the exact path.
+    auto distance_at = [&](const Eigen::VectorXd& qq, bool active, double above) {
       const std::vector<Pose> poses = I.target_frame_poses(wrist, qq);
       double d = std::numeric_limits<double>::infinity();
-      for (int l : moving) d = std::min(d, I.link_distance(l, poses[l], active));
+      for (int l : moving) {
+        d = std::min(d, I.link_clearance(l, poses[l], active, above));
+        if (d <= 0.0) break;
+      }
       ++r.iterations;
       return d;
     };
+    const double inf = std::numeric_limits<double>::infinity();
 
     // Links already penetrating (beyond the tolerance) or in an obstacle cannot move.
     {
@@ -148,12 +156,12 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
 
     const double limit = dir > 0 ? hi[k] : lo[k];
     const double min_step = 1e-3 * (hi[k] - lo[k]);
-    double d = distance_at(q, false);
+    double d = distance_at(q, false, inf);
     int iterations = 0;
     StopReason reason = StopReason::Blocked;
     while (true) {
       if (d <= gap) {
-        reason = distance_at(q, true) <= gap ? StopReason::Contact : StopReason::Blocked;
+        reason = distance_at(q, true, gap) <= gap ? StopReason::Contact : StopReason::Blocked;
         break;
       }
       if (q[k] == limit) {
@@ -169,7 +177,7 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
       step = std::max(step, min_step);
       Eigen::VectorXd q_new = q;
       q_new[k] = dir > 0 ? std::min(q[k] + step, limit) : std::max(q[k] - step, limit);
-      const double d_new = distance_at(q_new, false);
+      const double d_new = distance_at(q_new, false, inf);
       if (d_new > 0.0) {
         q = q_new;
         d = d_new;
@@ -180,7 +188,7 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
       for (int it = 0; it < 60 && da > gap; ++it) {
         Eigen::VectorXd qm = q;
         qm[k] = 0.5 * (a + b);
-        const double dm = distance_at(qm, false);
+        const double dm = distance_at(qm, false, gap);
         if (dm > 0.0) {
           a = qm[k];
           da = dm;
@@ -196,6 +204,11 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
       }
     }
     r.reasons[k] = reason;
+    if (I.options.use_distance_field && d > gap) {  // maybe a lower bound: measure it
+      const std::vector<Pose> poses = I.target_frame_poses(wrist, q);
+      d = std::numeric_limits<double>::infinity();
+      for (int l : moving) d = std::min(d, I.link_distance(l, poses[l], false));
+    }
     r.clearance[k] = d;
   }
   r.dofs = q;

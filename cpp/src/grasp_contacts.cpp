@@ -45,9 +45,26 @@ Contacts find_contacts(const GraspChecker& checker, const Pose& wrist, const Eig
     const vd::LinkModel& L = I.links[l];
     if (L.contact_samples.rows() == 0) continue;
     if (!vd::transform_box(L.bounds, poses[l]).intersects(tb)) continue;
+    // The target's distance field rejects the samples whose signed distance certainly lies
+    // outside [-below, gap] (all of them when a ball of the active surface's tree does); the
+    // exact query measures the others.
+    const DistanceField* field = closed && I.options.use_distance_field ? T.field.get() : nullptr;
+    if (field && !L.active_surface.empty()) {
+      bool all_out = true;
+      for (std::int32_t root : L.active_surface.roots) {
+        const vd::SphereTree::Node& n = L.active_surface.nodes[root];
+        const FieldSample f = field->sample(poses[l] * n.centre);
+        all_out = all_out && (f.lower - n.radius > gap || f.upper + n.radius < -below);
+      }
+      if (all_out) continue;
+    }
     for (Eigen::Index i = 0; i < L.contact_samples.rows(); ++i) {
       const Vec3 p = poses[l] * Vec3(L.contact_samples.row(i).transpose());
       if (!tb.contains(p)) continue;
+      if (field) {
+        const FieldSample f = field->sample(p);
+        if (f.lower > gap || f.upper < -below) continue;
+      }
       SurfacePoint cp = T.query->closest(p, reach * (1.0 + 1e-9) + 1e-15);
       if (cp.face < 0) continue;
       double sd = cp.distance;

@@ -3,6 +3,7 @@
 // and with a table under the target, every decision is the same and depths agree within the
 // field's bound. Most poses put a random point of a random link within a few millimetres of a
 // random target surface point (links straddling the surface), the rest anywhere near the target.
+// Closing and contacts are compared the same way.
 #include <pairgrasp/collision.hpp>
 #include <pairgrasp/grasp.hpp>
 #include <pairgrasp/paint.hpp>
@@ -170,6 +171,62 @@ TEST(CollisionField, DecisionsEqualTheExactPathOnRandomPoses) {
   }
   std::printf("%d poses, %d with a differing decision\n", total.poses, total.differing);
   EXPECT_EQ(total.differing, 0);
+}
+
+// Closing and contacts through the fields against the exact path: on random poses of both
+// hands near every bundled target (the open hand's poses that the exact check keeps, and
+// near-contact poses), close_fingers gives the same closed DOFs, reasons, clearances and final
+// decisions, and find_contacts the same contacts, at the exactly closed DOFs and at the start.
+TEST(CollisionField, ClosingAndContactsEqualTheExactPath) {
+  int closings = 0, contact_sets = 0, with_contacts = 0;
+  std::uint64_t seed = 100;
+  for (const char* spec : {"barrett/barrett.json", "parallel_jaw/parallel_jaw.json"}) {
+    const Hand hand = Hand::load(model(spec));
+    for (const char* name : {"box", "mug", "flask"}) {
+      SCOPED_TRACE(std::string(spec) + " on " + name);
+      const Mesh target = load_mesh(model(std::string("targets/") + name + ".stl"));
+      const Mask paint = load_paint(model(std::string("targets/") + name + ".paint.json"), target);
+      const GraspChecker exact(hand, target, paint, {}, with_field(false));
+      const GraspChecker field(hand, target, paint, {}, with_field(true));
+      const Poses p = random_poses(hand, target, 48, seed++, field);
+      for (std::size_t k = 0; k < p.wrists.size(); ++k) {
+        SCOPED_TRACE("pose " + std::to_string(k));
+        const Contacts ca = find_contacts(exact, p.wrists[k], p.dofs[k]);
+        const Contacts cb = find_contacts(field, p.wrists[k], p.dofs[k]);
+        ++contact_sets;
+        with_contacts += ca.points.rows() > 0;
+        EXPECT_EQ(ca.points, cb.points);
+        EXPECT_EQ(ca.target_points, cb.target_points);
+        EXPECT_EQ(ca.distances, cb.distances);
+        EXPECT_EQ(ca.faces, cb.faces);
+        EXPECT_EQ(ca.links, cb.links);
+        EXPECT_EQ(ca.occluded_count, cb.occluded_count);
+        // Closing from the open hand (the DOFs at their lower third) at the same wrist.
+        Eigen::VectorXd open = hand.dof_lower() + 0.33 * (p.dofs[k] - hand.dof_lower());
+        const CloseResult a = close_fingers(exact, p.wrists[k], open);
+        const CloseResult b = close_fingers(field, p.wrists[k], open);
+        ++closings;
+        EXPECT_EQ(a.dofs, b.dofs);
+        EXPECT_EQ(a.reasons, b.reasons);
+        EXPECT_EQ(a.clearance, b.clearance);
+        EXPECT_EQ(a.check.pruned, b.check.pruned);
+        EXPECT_EQ(a.check.penetrating, b.check.penetrating);
+        EXPECT_EQ(a.check.collision, b.check.collision);
+        EXPECT_EQ(a.start_penetrating, b.start_penetrating);
+        const Contacts da = find_contacts(exact, p.wrists[k], a.dofs);
+        const Contacts db = find_contacts(field, p.wrists[k], a.dofs);
+        ++contact_sets;
+        with_contacts += da.points.rows() > 0;
+        EXPECT_EQ(da.points, db.points);
+        EXPECT_EQ(da.distances, db.distances);
+        EXPECT_EQ(da.faces, db.faces);
+        EXPECT_EQ(da.links, db.links);
+        EXPECT_EQ(da.occluded_count, db.occluded_count);
+      }
+    }
+  }
+  std::printf("%d closings, %d contact sets (%d with contacts) compared\n", closings, contact_sets, with_contacts);
+  EXPECT_GT(with_contacts, contact_sets / 10);
 }
 
 TEST(CollisionField, ConvexAndNonConvexLinksAndTheFieldSize) {
