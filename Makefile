@@ -57,9 +57,9 @@ $(ASAN_BUILD)/CMakeCache.txt:
 asan-build: deps $(ASAN_BUILD)/CMakeCache.txt
 	cmake --build $(ASAN_BUILD) -j $(JOBS)
 
-# The consumer test is left to the plain ctest: it builds an uninstrumented program.
+# The examples tests are left to the plain ctest: they build uninstrumented programs.
 asan-ctest: asan-build
-	$(ASAN_ENV) ctest --test-dir $(ASAN_BUILD) --output-on-failure -j $(JOBS) -E find_package_consumer
+	$(ASAN_ENV) ctest --test-dir $(ASAN_BUILD) --output-on-failure -j $(JOBS) -E "find_package_consumer|plan_grasps_example"
 
 asan-pytest: asan-build install
 	$(ASAN_PY_ENV) $(PYTHON) -m pytest tests/py -q -p no:cacheprovider

@@ -209,6 +209,9 @@ CandidatePipeline::CandidatePipeline(const GraspChecker& checker, const Pipeline
     throw std::invalid_argument("contacts_per_link: expected an integer >= 0, got " +
                                 std::to_string(options_.evaluate.contacts_per_link));
   options_.evaluate.close = true;
+  // The search ranks by epsilon: the hull volume (several times the cost of the hull in 6-D) is
+  // left to the returned grasps, which finish() scores again with every contact.
+  if (options_.evaluate.contacts_per_link > 0) options_.evaluate.quality.volume = false;
   reference_ = options_.evaluate.reference ? *options_.evaluate.reference : torque_reference(checker.target());
   options_.evaluate.reference = reference_;
   grasp_quality(Points(0, 3), Points(0, 3), reference_.center, reference_.radius, options_.evaluate.quality);
@@ -347,6 +350,7 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options)
   // The returned grasps are scored again with every contact.
   QualityOptions full = options_.evaluate.quality;
   full.open_volume = true;
+  full.volume = true;
   detail::parallel_for(chosen.size(), options_.threads, [&](std::size_t i) {
     const GraspEvaluation& e = chosen[i].evaluation;
     chosen[i].quality = options_.evaluate.contacts_per_link > 0 && e.contacts.points.rows() > 0

@@ -121,10 +121,9 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
     const std::vector<int>& moving = I.dof_links[k];
     if (dir == 0 || moving.empty()) continue;
 
-    // The distance of the moving links. With distance fields, where only its comparison with
-    // the gap matters (`above` = gap), a lower bound of it beyond the gap; elsewhere the exact
-    // value (0 at once where the field shows the surfaces crossing): the steps, hence the
-    // closed DOFs, are those of the exact path.
+    // The distance of the moving links. With distance fields, a lower bound of it beyond `above`
+    // (a conservative step, and the comparison with `above` decided); the exact value below it
+    // (0 at once where the field shows the surfaces crossing).
     auto distance_at = [&](const Eigen::VectorXd& qq, bool active, double above) {
       const std::vector<Pose> poses = I.target_frame_poses(wrist, qq);
       double d = std::numeric_limits<double>::infinity();
@@ -135,7 +134,6 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
       ++r.iterations;
       return d;
     };
-    const double inf = std::numeric_limits<double>::infinity();
 
     // Links already penetrating (beyond the tolerance) or in an obstacle cannot move.
     {
@@ -156,11 +154,14 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
 
     const double limit = dir > 0 ? hi[k] : lo[k];
     const double min_step = 1e-3 * (hi[k] - lo[k]);
-    double d = distance_at(q, false, inf);
+    // A finger stops within half the gap (aiming at a quarter of it), so that the active-surface
+    // samples of a face parallel to the target register as contacts (within the gap).
+    const double stop = 0.5 * gap;
+    double d = distance_at(q, false, stop);
     int iterations = 0;
     StopReason reason = StopReason::Blocked;
     while (true) {
-      if (d <= gap) {
+      if (d <= stop) {
         reason = distance_at(q, true, gap) <= gap ? StopReason::Contact : StopReason::Blocked;
         break;
       }
@@ -173,11 +174,11 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
         break;
       }
       const double v = link_speed(hand, moving, q, k, dir, lo[k], hi[k]);
-      double step = v > 0.0 ? (d - 0.5 * gap) / (1.5 * v) : std::numeric_limits<double>::infinity();
+      double step = v > 0.0 ? (d - 0.25 * gap) / (1.5 * v) : std::numeric_limits<double>::infinity();
       step = std::max(step, min_step);
       Eigen::VectorXd q_new = q;
       q_new[k] = dir > 0 ? std::min(q[k] + step, limit) : std::max(q[k] - step, limit);
-      const double d_new = distance_at(q_new, false, inf);
+      const double d_new = distance_at(q_new, false, stop);
       if (d_new > 0.0) {
         q = q_new;
         d = d_new;
@@ -185,10 +186,10 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
       }
       // The step ends intersecting: bisect between the last free value and it.
       double a = q[k], b = q_new[k], da = d;
-      for (int it = 0; it < 60 && da > gap; ++it) {
+      for (int it = 0; it < 60 && da > stop; ++it) {
         Eigen::VectorXd qm = q;
         qm[k] = 0.5 * (a + b);
-        const double dm = distance_at(qm, false, gap);
+        const double dm = distance_at(qm, false, stop);
         if (dm > 0.0) {
           a = qm[k];
           da = dm;
@@ -198,13 +199,13 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
       }
       q[k] = a;
       d = da;
-      if (d > gap) {  // could not get within the gap without intersecting (a gap of ~0)
+      if (d > stop) {  // could not get within half the gap without intersecting (a gap of ~0)
         reason = StopReason::Contact;
         break;
       }
     }
     r.reasons[k] = reason;
-    if (I.options.use_distance_field && d > gap) {  // maybe a lower bound: measure it
+    if (I.options.use_distance_field && d > stop) {  // maybe a lower bound: measure it
       const std::vector<Pose> poses = I.target_frame_poses(wrist, q);
       d = std::numeric_limits<double>::infinity();
       for (int l : moving) d = std::min(d, I.link_distance(l, poses[l], false));

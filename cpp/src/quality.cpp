@@ -105,7 +105,7 @@ std::string origin_reason(double distance, double boundary_tol) {
          " the wrench hull";
 }
 
-HullQuality hull_quality(const Eigen::Ref<const Matrix>& wrenches, double tol, double boundary_tol) {
+HullQuality hull_quality(const Eigen::Ref<const Matrix>& wrenches, double tol, double boundary_tol, bool volume) {
   HullQuality out;
   const Matrix u = unique_rows(wrenches);  // frictionless edges coincide exactly
   if (u.rows() < 7) {
@@ -128,8 +128,8 @@ HullQuality hull_quality(const Eigen::Ref<const Matrix>& wrenches, double tol, d
   detail::ConvexHull hull;
   std::string error;
   const int n = static_cast<int>(rows.rows());
-  if (!detail::convex_hull(rows.data(), n, 6, kHullOptions, true, hull, error) &&
-      !detail::convex_hull(rows.data(), n, 6, kJoggleOptions, true, hull, error)) {
+  if (!detail::convex_hull(rows.data(), n, 6, kHullOptions, volume, hull, error) &&
+      !detail::convex_hull(rows.data(), n, 6, kJoggleOptions, volume, hull, error)) {
     out.reason = "degenerate wrench hull (qhull: " + error + ")";  // numerically flat despite the rank tests
     return out;
   }
@@ -203,7 +203,7 @@ struct ActiveSetQuality {
   bool exact = false;
 };
 
-ActiveSetQuality active_set_quality(const Matrix& w, Eigen::Index per, const Matrix& coords, double tol,
+ActiveSetQuality active_set_quality(const Matrix& w, Eigen::Index per, const Matrix& coords, double tol, bool volume,
                                     double boundary_tol) {
   const Eigen::Index n = coords.rows();
   if (n == 0) return {0.0, 0.0, "no contacts", true};
@@ -230,7 +230,7 @@ ActiveSetQuality active_set_quality(const Matrix& w, Eigen::Index per, const Mat
     Matrix sub(static_cast<Eigen::Index>(members.size()) * per, 6);
     for (std::size_t k = 0; k < members.size(); ++k)
       sub.middleRows(static_cast<Eigen::Index>(k) * per, per) = w.middleRows(members[k] * per, per);
-    HullQuality h = hull_quality(sub, tol, boundary_tol);
+    HullQuality h = hull_quality(sub, tol, boundary_tol, volume);
     if (static_cast<Eigen::Index>(members.size()) == n) return {h.epsilon, h.volume, h.reason, true};
     if (h.planes.rows() == 0) {  // the subset does not span 6-D: widen it by its farthest contacts
       std::vector<double> far(n);
@@ -337,12 +337,12 @@ GraspQuality grasp_quality(const Points& points, const Points& normals, const Ei
     return q;
   }
   if (w.rows() <= options.max_hull_wrenches) {
-    HullQuality h = hull_quality(w, tol, boundary_tol);
+    HullQuality h = hull_quality(w, tol, boundary_tol, options.volume);
     q.epsilon = h.epsilon;
     q.volume = h.volume;
     q.reason = std::move(h.reason);
   } else {
-    ActiveSetQuality a = active_set_quality(w, per, coords, tol, boundary_tol);
+    ActiveSetQuality a = active_set_quality(w, per, coords, tol, options.volume, boundary_tol);
     q.epsilon = a.epsilon;
     q.volume = a.volume;
     q.reason = std::move(a.reason);
@@ -350,6 +350,7 @@ GraspQuality grasp_quality(const Points& points, const Points& normals, const Ei
   }
   if (!q.reason.empty()) q.epsilon = 0.0;
   q.force_closure = q.reason.empty();
+  if (!options.volume) q.volume_exact = false;
   return q;
 }
 

@@ -271,7 +271,8 @@ def epsilon_upper_bound(points, normals, center, radius, mu=0.5, edges=8, soft=F
 # ---------------------------------------------------------------------------------------- quality
 
 def grasp_quality(points, normals, center, radius, mu=0.5, edges=8, soft=False, torsion=None,
-                  soft_rings=0, max_hull_wrenches: int = 320, open_volume: bool = True) -> GraspQuality:
+                  soft_rings=0, max_hull_wrenches: int = 320, open_volume: bool = True,
+                  volume: bool = True) -> GraspQuality:
     """Ferrari-Canny epsilon (L1) and hull volume of a grasp given by its contacts (eq. 2-7).
 
     Args: as :func:`wrench_matrix` (points, OUTWARD normals, torque origin ``center``, torque scale
@@ -282,7 +283,8 @@ def grasp_quality(points, normals, center, radius, mu=0.5, edges=8, soft=False, 
     hull volume of a grasp that is not force-closure is not wanted, so a grasp whose wrenches a
     hyperplane through the origin separates from it (Gilbert's minimum-norm iteration) is ruled
     out first, without the hull (volume 0, ``volume_exact`` False); force-closure results are
-    unchanged.
+    unchanged. ``volume=False``: no hull volume at all (0, ``volume_exact`` False), epsilon and force
+    closure unchanged; in 6-D the volume costs several times the hull itself.
 
     Returns:
         :class:`GraspQuality`. A grasp whose wrenches do not span the wrench space (e.g. two point
@@ -295,4 +297,4 @@ def grasp_quality(points, normals, center, radius, mu=0.5, edges=8, soft=False, 
     args = _check_inputs(points, normals, center, radius, mu, edges, soft, torsion, soft_rings)
     max_hull_wrenches = _count("max_hull_wrenches", max_hull_wrenches, 7)
     return GraspQuality(*_core._grasp_quality(**_model(args), max_hull_wrenches=max_hull_wrenches,
-                                              open_volume=bool(open_volume)))
+                                              open_volume=bool(open_volume), volume=bool(volume)))

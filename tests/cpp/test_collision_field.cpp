@@ -175,8 +175,10 @@ TEST(CollisionField, DecisionsEqualTheExactPathOnRandomPoses) {
 
 // Closing and contacts through the fields against the exact path: on random poses of both
 // hands near every bundled target (the open hand's poses that the exact check keeps, and
-// near-contact poses), close_fingers gives the same closed DOFs, reasons, clearances and final
-// decisions, and find_contacts the same contacts, at the exactly closed DOFs and at the start.
+// near-contact poses), find_contacts gives the same contacts at the start and at the exactly
+// closed DOFs, and close_fingers the same reasons; its steps follow the field's lower bounds, so
+// it may stop elsewhere within half the gap, but where it stops is where the exact closing stops
+// too (closing exactly from the field's DOFs moves nothing), with the exact clearance.
 TEST(CollisionField, ClosingAndContactsEqualTheExactPath) {
   int closings = 0, contact_sets = 0, with_contacts = 0;
   std::uint64_t seed = 100;
@@ -206,13 +208,16 @@ TEST(CollisionField, ClosingAndContactsEqualTheExactPath) {
         const CloseResult a = close_fingers(exact, p.wrists[k], open);
         const CloseResult b = close_fingers(field, p.wrists[k], open);
         ++closings;
-        EXPECT_EQ(a.dofs, b.dofs);
         EXPECT_EQ(a.reasons, b.reasons);
-        EXPECT_EQ(a.clearance, b.clearance);
-        EXPECT_EQ(a.check.pruned, b.check.pruned);
-        EXPECT_EQ(a.check.penetrating, b.check.penetrating);
-        EXPECT_EQ(a.check.collision, b.check.collision);
         EXPECT_EQ(a.start_penetrating, b.start_penetrating);
+        const CloseResult again = close_fingers(exact, p.wrists[k], b.dofs);
+        for (Eigen::Index d = 0; d < b.dofs.size(); ++d) {
+          if (b.reasons[d] != StopReason::Contact && b.reasons[d] != StopReason::Limit) continue;
+          EXPECT_EQ(again.dofs[d], b.dofs[d]) << "DOF " << d;
+          EXPECT_EQ(again.reasons[d], b.reasons[d]) << "DOF " << d;
+          EXPECT_NEAR(again.clearance[d], b.clearance[d], 1e-12) << "DOF " << d;
+          if (b.reasons[d] == StopReason::Contact) EXPECT_LE(b.clearance[d], 0.5 * exact.options().contact_gap);
+        }
         const Contacts da = find_contacts(exact, p.wrists[k], a.dofs);
         const Contacts db = find_contacts(field, p.wrists[k], a.dofs);
         ++contact_sets;

@@ -65,10 +65,13 @@ struct CloseResult {
 /// the contact gap of the target (or an obstacle) or it reaches its limit.
 ///
 /// Each DOF moves the links downstream of its joints. Motion is by conservative advancement: the
-/// FCL distance d from those links (every face) to the target and obstacles and a bound v on the
-/// speed of their vertices per unit of the DOF give a step (d − gap/2)/(1.5·v) that cannot reach
-/// the surface; a step that still ends intersecting is bisected back. So a finger never crosses
-/// a surface on the way and stops at most one contact gap away from it. A DOF whose links
+/// distance d from those links (every face) to the target and obstacles (FCL; with distance
+/// fields a lower bound of it from the target's field while it is beyond gap/2, the exact
+/// distance below) and a bound v on the speed of their vertices per unit of the DOF give a step
+/// (d − gap/4)/(1.5·v) that cannot reach the surface; a step that still ends intersecting is
+/// bisected back. So a finger never crosses a surface on the way and stops within half the
+/// contact gap of it, where the active-surface samples of a face lying parallel to the target
+/// register as contacts (find_contacts() takes those within the gap). A DOF whose links
 /// penetrate beyond the tolerance (or touch an obstacle) at the start does not move (Blocked,
 /// and start_penetrating). Self-collision of the hand is not considered.
 /// Throws std::invalid_argument for a bad wrist ("wrist: ..."), DOF vector ("dofs: ...") or

@@ -47,6 +47,10 @@ struct QualityOptions {
   /// minimum-norm iteration, no hull and no linear programme) is reported without a hull:
   /// volume 0, volume_exact false. Force-closure results are unchanged.
   bool open_volume = true;
+  /// false: no hull volume at all (volume 0, volume_exact false), epsilon and force closure
+  /// unchanged; the volume (qhull's FA, the facets' areas in 6-D) costs several times the hull
+  /// itself, so a search that ranks by epsilon skips it.
+  bool volume = true;
   /// A caller that only wants grasps whose epsilon reaches this value (dimensionless, >= 0) skips
   /// the hull of any grasp whose epsilon_upper_bound() is below it: the result then has
   /// epsilon_computed false, epsilon 0, force_closure false, volume 0 and volume_exact false.

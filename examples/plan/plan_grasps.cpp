@@ -1,0 +1,195 @@
+// plan_grasps: grasps of a hand on a target planned with the C++ library alone (no Python), on the
+// grid schedule (every DOF sampled every --step radians), written as a grasps.json that
+// `pairgrasp simulate` and `pairgrasp view` read.
+//
+//   plan_grasps --hand SPEC --target MESH [--paint FILE] [--step RAD] [--top K] [--seed S]
+//               [--threads N] -o FILE
+#include <pairgrasp/error.hpp>
+#include <pairgrasp/hand.hpp>
+#include <pairgrasp/mesh.hpp>
+#include <pairgrasp/paint.hpp>
+#include <pairgrasp/planner.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace pg = pairgrasp;
+
+namespace {
+
+struct Args {
+  std::string hand, target, paint, out;
+  double step = 0.0;  // 0: the hand's steps
+  int top = 10;
+  unsigned long seed = 0;
+  int threads = 0;
+};
+
+[[noreturn]] void usage(const std::string& why) {
+  std::fprintf(stderr,
+               "plan_grasps: %s\nusage: plan_grasps --hand SPEC --target MESH [--paint FILE] [--step RAD] [--top K] "
+               "[--seed S] [--threads N] -o FILE\n",
+               why.c_str());
+  std::exit(2);
+}
+
+double number(const std::string& flag, const char* text) {
+  char* end = nullptr;
+  const double v = std::strtod(text, &end);
+  if (end == text || *end != '\0' || !std::isfinite(v)) usage(flag + ": expected a number, got '" + text + "'");
+  return v;
+}
+
+Args parse(int argc, char** argv) {
+  Args a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string f = argv[i];
+    if (i + 1 >= argc) usage(f + ": missing value");
+    const char* v = argv[++i];
+    if (f == "--hand") a.hand = v;
+    else if (f == "--target") a.target = v;
+    else if (f == "--paint") a.paint = v;
+    else if (f == "-o" || f == "--out") a.out = v;
+    else if (f == "--step") a.step = number(f, v);
+    else if (f == "--top") a.top = static_cast<int>(number(f, v));
+    else if (f == "--seed") a.seed = static_cast<unsigned long>(number(f, v));
+    else if (f == "--threads") a.threads = static_cast<int>(number(f, v));
+    else usage("unknown option " + f);
+  }
+  if (a.hand.empty() || a.target.empty() || a.out.empty()) usage("--hand, --target and -o are required");
+  if (a.step < 0.0 || a.top < 1 || a.threads < 0) usage("--step must be >= 0, --top >= 1, --threads >= 0");
+  return a;
+}
+
+// JSON text of numbers rounded to 9 decimals (nm / nrad), as the Python writer does, in the
+// fewest digits that read back to the same double.
+std::string num(double x) {
+  const double r = std::round(x * 1e9) / 1e9;
+  char buf[64];
+  for (int digits = 15; digits <= 17; ++digits) {
+    std::snprintf(buf, sizeof buf, "%.*g", digits, r == 0.0 ? 0.0 : r);
+    if (std::strtod(buf, nullptr) == r) break;
+  }
+  std::string s = buf;
+  if (s.find_first_of(".eE") == std::string::npos) s += ".0";
+  return s;
+}
+std::string quoted(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+template <class V>
+std::string list(const V& v) {
+  std::string s = "[";
+  for (Eigen::Index i = 0; i < v.size(); ++i) s += (i ? ", " : "") + num(v[i]);
+  return s + "]";
+}
+std::string matrix(const pg::Pose& p) {
+  std::string s = "[";
+  for (int i = 0; i < 4; ++i) s += (i ? ", " : "") + list(Eigen::Vector4d(p.matrix().row(i).transpose()));
+  return s + "]";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Args args = parse(argc, argv);
+  try {
+    const auto t0 = std::chrono::steady_clock::now();
+    const pg::Hand hand = pg::Hand::load(args.hand);
+    const pg::Mesh target = pg::load_mesh(args.target);
+    const pg::Mask free = args.paint.empty() ? pg::Mask() : pg::load_paint(args.paint, target);
+    pg::PlannerOptions po;
+    po.threads = args.threads;
+    const pg::GraspPlanner planner(hand, target, free, {}, po);
+    const std::vector<Eigen::VectorXd> samples =
+        pg::dof_grid(hand.dof_lower(), hand.dof_upper(), planner.steps(args.step));
+    pg::PlanOptions o;
+    o.step = args.step;
+    o.top = args.top;
+    o.seed = args.seed;
+    const pg::PlanReport report = pg::plan_samples(planner, samples, o);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+    const pg::PlannerSetup& s = planner.setup();
+    std::printf("%s on %s: %zu samples, %ld candidates evaluated, %ld force-closure; edge %.4g m, d_max %.4g m\n",
+                hand.name().c_str(), args.target.c_str(), samples.size(), report.counts.at("evaluated"),
+                report.counts.at("force_closure"), s.edge, s.d_max);
+    std::printf("rank  epsilon   volume     Q_A      votes  contacts  dofs\n");
+    std::ostringstream grasps;
+    int rank = 0;
+    for (const pg::RankedGrasp& g : report.grasps) {
+      const pg::EvaluatedCandidate& c = report.candidates[g.candidate];
+      const pg::GraspEvaluation& e = g.evaluation;
+      ++rank;
+      std::printf("%4d  %.5f  %.3e  %7.2f  %5d  %8ld  [", rank, g.quality.epsilon, g.quality.volume,
+                  c.candidate.quality, c.candidate.votes, static_cast<long>(e.contacts.points.rows()));
+      for (Eigen::Index d = 0; d < e.dofs.size(); ++d) std::printf("%s%.4f", d ? " " : "", e.dofs[d]);
+      std::printf("]%s\n", g.quality.force_closure ? "" : "  (not force-closure)");
+      const Eigen::VectorXd joints = hand.joint_values(e.dofs, true);
+      const std::vector<std::string> names = hand.joint_names();
+      std::string joint_text = "{";
+      for (std::size_t j = 0; j < names.size(); ++j)
+        joint_text += (j ? ", " : "") + quoted(names[j]) + ": " + num(joints[static_cast<Eigen::Index>(j)]);
+      joint_text += "}";
+      std::string contacts = "[";
+      for (Eigen::Index k = 0; k < e.contacts.points.rows(); ++k)
+        contacts += std::string(k ? ", " : "") + "{\"point\": " + list(Eigen::Vector3d(e.contacts.points.row(k).transpose())) +
+                    ", \"normal\": " + list(Eigen::Vector3d(e.contacts.normals.row(k).transpose())) +
+                    ", \"link\": " + quoted(e.contacts.link_names[static_cast<std::size_t>(k)]) + "}";
+      contacts += "]";
+      grasps << (rank > 1 ? ",\n" : "") << "    {\"rank\": " << rank << ", \"wrist_pose\": " << matrix(e.wrist)
+             << ", \"dof\": " << list(e.dofs) << ", \"joints\": " << joint_text
+             << ", \"epsilon\": " << num(g.quality.epsilon) << ", \"volume\": " << num(g.quality.volume)
+             << ", \"force_closure\": " << (g.quality.force_closure ? "true" : "false")
+             << ", \"alignment_quality\": " << num(c.candidate.quality) << ", \"votes\": " << c.candidate.votes
+             << ", \"penetration_depth\": " << num(e.depth) << ", \"contacts\": " << contacts
+             << ", \"sample\": " << list(c.candidate.dofs) << ", \"aligned_pose\": " << matrix(c.candidate.pose)
+             << ", \"backoff\": " << num(c.backoff) << ", \"fine_tuned\": " << (g.fine_tuned ? "true" : "false") << "}";
+    }
+    std::ostringstream doc;
+    doc << "{\n  \"format\": \"pairgrasp.grasps/1\",\n"
+        << "  \"inputs\": {\"hand\": " << quoted(hand.name()) << ", \"hand_spec\": " << quoted(args.hand)
+        << ", \"target\": " << quoted(args.target) << ", \"target_faces\": " << target.faces.rows()
+        << (args.paint.empty() ? "" : ", \"paint\": " + quoted(args.paint))
+        << ", \"free_faces\": " << planner.free().count() << "},\n"
+        << "  \"parameters\": {\"schedule\": \"grid\", \"step\": " << (args.step > 0 ? num(args.step) : "null")
+        << ", \"poses_per_sample\": " << o.poses_per_sample << ", \"top\": " << o.top << ", \"seed\": " << o.seed
+        << ", \"fine_tune\": " << o.fine_tune << ", \"fine_tune_iterations\": " << o.fine_tune_iterations
+        << ", \"contacts_per_link\": " << o.contacts_per_link << ", \"mu\": " << num(o.mu) << ", \"edges\": " << o.edges
+        << ", \"edge\": " << num(s.edge) << ", \"d_max\": " << num(s.d_max) << ", \"constellation\": "
+        << (s.mode == pg::ConstellationMode::Area ? "\"area\"" : "\"per_link\"") << "},\n  \"counts\": {";
+    bool first = true;
+    for (const auto& [k, v] : report.counts) {
+      doc << (first ? "" : ", ") << quoted(k) << ": " << v;
+      first = false;
+    }
+    doc << "},\n  \"timings\": {\"index\": " << num(planner.setup_seconds());
+    for (const auto& [k, v] : report.timings) doc << ", " << quoted(k) << ": " << num(v);
+    doc << ", \"total\": " << num(seconds) << "},\n  \"grasps\": [\n" << grasps.str() << "\n  ]\n}\n";
+    const std::string part = args.out + ".part";
+    {
+      std::ofstream f(part);
+      if (!(f << doc.str())) throw pg::FileError(args.out, "cannot write");
+    }
+    if (std::rename(part.c_str(), args.out.c_str()) != 0) throw pg::FileError(args.out, "cannot write");
+    std::printf("time %.2f s (index %.2f, align %.2f, settle %.2f, evaluate %.2f, fine_tune %.2f s); wrote %s\n",
+                seconds, planner.setup_seconds(), report.timings.at("align"), report.timings.at("settle"),
+                report.timings.at("evaluate"), report.timings.at("fine_tune"), args.out.c_str());
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "plan_grasps: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
