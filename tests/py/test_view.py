@@ -116,6 +116,26 @@ def test_scene_text_has_epsilon_and_the_simulation(jaw_grasps):
     assert "force closure" in two.summary and "simulated" not in two.summary
 
 
+def test_obstacles_and_occluders_are_in_the_scene(tmp_path):
+    """A plan with a table as obstacle and occluder: the exported scene holds both, and the occluded
+    faces it rebuilds from the recorded files are the planner's (no note about a difference)."""
+    from pairgrasp import view
+
+    table = trimesh.creation.box(bounds=[[-0.2, -0.2, -0.02], [0.2, 0.2, 0.0]])
+    table.export(str(tmp_path / "table.stl"))
+    box = trimesh.creation.box(bounds=[[-0.03, -0.03, 0.0], [0.03, 0.03, 0.12]]).subdivide()
+    box.export(str(tmp_path / "box.stl"))
+    planner = pg.Planner(str(JAW), str(tmp_path / "box.stl"), obstacles=[str(tmp_path / "table.stl")],
+                         occluders=[str(tmp_path / "table.stl")], edge=0.008, top=1, seed=0)
+    result = planner.plan(progress=False)
+    pg.write_grasps(tmp_path / "grasps.json", result.to_dict())
+    scene = view.load_scene(tmp_path / "grasps.json")
+    assert scene.notes == []
+    s = view.to_trimesh(scene)
+    assert {"target", "target/occluded", "obstacle1", "occluder1"} <= set(s.geometry)
+    assert len(s.geometry["target/occluded"].faces) == int((~np.asarray(planner.free)).sum()) > 0
+
+
 def _one_line_error(r, needle, code=1):
     assert r.returncode == code, (r.stdout, r.stderr)
     lines = r.stderr.strip().splitlines()
