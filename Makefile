@@ -1,11 +1,12 @@
-# pairgrasp: the two commands of the README are `make demo` (the main job) and `make test`.
+# pairgrasp: the two commands of the README are `make demo` (the main job) and `make test` (minutes);
+# `make check` (what .ci/run calls) adds the slow tests, the sanitizer build and the fuzzers.
 PYTHON    ?= python3
 BUILD     ?= build/cpp
 JOBS      ?= $(shell nproc 2>/dev/null || echo 2)
 GENERATOR := $(shell command -v ninja >/dev/null 2>&1 && echo Ninja || echo "Unix Makefiles")
 PYBIND11_DIR = $(shell $(PYTHON) -c "import pybind11; print(pybind11.get_cmake_dir())" 2>/dev/null)
 OUT       ?= out/demo
-# Sanitizer and fuzzing builds, each in its own folder (see the README's "Reliability").
+# Sanitizer and fuzzing builds, each in its own folder (see docs/reliability.md).
 ASAN_BUILD ?= build/asan
 FUZZ_BUILD ?= build/fuzz
 TSAN_BUILD ?= build/tsan
@@ -23,30 +24,42 @@ ASAN_PY_ENV = LD_PRELOAD="$$($(ASAN_CXX) -print-file-name=libasan.so) $$($(ASAN_
              ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
              PAIRGRASP_SANITIZED=1
 
-.PHONY: deps build ctest install pytest test demo bench clean asan asan-build asan-ctest asan-pytest fuzz tsan
+.PHONY: deps build ctest install pytest pytest-slow test check demo bench clean asan asan-build asan-ctest asan-pytest fuzz tsan
 
 deps:
 	bash scripts/install_deps.sh
 
-$(BUILD)/CMakeCache.txt:
+# One Release build for the C++ tests and the Python tests: the library, the GoogleTest programs and
+# the extension, which $(BUILD)/python/pairgrasp holds beside links to the Python sources (so pytest
+# runs with PYTHONPATH=$(BUILD)/python, without building a wheel). Configured every time (cheap when
+# nothing changed), so a build folder configured without the extension gets it.
+build: deps
 	cmake -S . -B $(BUILD) -G "$(GENERATOR)" -DCMAKE_BUILD_TYPE=Release \
-	  -DPAIRGRASP_BUILD_TESTS=ON -DPAIRGRASP_BUILD_PYTHON=OFF
-
-build: deps $(BUILD)/CMakeCache.txt
+	  -DPAIRGRASP_BUILD_TESTS=ON -DPAIRGRASP_BUILD_PYTHON=ON -DPython_EXECUTABLE=$$(command -v $(PYTHON)) \
+	  -Dpybind11_DIR=$(PYBIND11_DIR) >/dev/null
 	cmake --build $(BUILD) -j $(JOBS)
 
 ctest: build
 	ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
 
+# What users run: the package built and installed by pip (scikit-build-core).
 install: deps
 	$(PYTHON) -m pip install -q --disable-pip-version-check .
 
-pytest: install
-	$(PYTHON) -m pytest tests/py -q
+pytest: build
+	PYTHONPATH=$(BUILD)/python $(PYTHON) -m pytest tests/py -q -m "not slow"
 
-# Every test: C++ (ctest, including the find_package consumer) and Python (pytest), then the
-# same C++ tests and the Python tests against an ASan + UBSan build, then bounded fuzzing.
-test: ctest pytest asan fuzz
+# The tests marked slow (the longer end-to-end plans and CLI runs), against the pip-installed package.
+pytest-slow: install
+	$(PYTHON) -m pytest tests/py -q -m slow -p no:cacheprovider
+
+# The README's test command, in minutes: C++ (ctest, including the find_package consumer) and the
+# Python tests but the slow ones.
+test: ctest pytest
+
+# Everything CI checks (.ci/run): `make test`, the slow tests against the installed package, the
+# C++ tests and every Python test against an ASan + UBSan build, then bounded fuzzing.
+check: test pytest-slow asan fuzz
 
 # ASan + UBSan: the library, its C++ tests and the Python extension in $(ASAN_BUILD).
 $(ASAN_BUILD)/CMakeCache.txt:

@@ -1,4 +1,4 @@
-"""pairgrasp against its peers, each comparison measured in one run (README "Against peers").
+"""pairgrasp against its peers, each comparison measured in one run (docs/benchmarks.md, "Against peers").
 
     python bench/bench_peers.py ppf        # aligner vs OpenCV's point-pair-feature detector
     python bench/bench_peers.py versor     # the versor solver vs Eigen::umeyama (runs bench_versor)

@@ -151,7 +151,7 @@ def write_docs(docs: str, folder: str):
           f"Measured on {'; '.join(machines)}. Times are wall-clock seconds (the CPU column: the process's CPU "
           "seconds over all its threads, which other work on the machine changes less); the index is built once "
           "per target and shared by both schedules. `grid` is the paper's exhaustive even sampling (no early rejection); "
-          "`fast` is the coarse-to-fine schedule with early rejection (see the README).", "", table(rows), "",
+          "`fast` is the coarse-to-fine schedule with early rejection (see [the planner](planner.md)).", "", table(rows), "",
           "The target is `fast` at least 10× quicker with at least 0.9 of the grid's best ε. "
           + " ".join(f"{o['target'].capitalize()}: {o['speedup']:.1f}× quicker, ε ratio {o['epsilon_ratio']:.2f}"
                      f" ({'met' if o['speedup'] >= 10 and o['epsilon_ratio'] >= 0.9 else 'not met'})." for o in rows)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Runs pairgrasp on every bad input tried and prints what the user sees, as a Markdown table.
 
-    python scripts/bad_inputs.py           # the table of the README's "Reliability" section
+    python scripts/bad_inputs.py           # the table in docs/reliability.md ("Bad inputs")
     python scripts/bad_inputs.py --check   # also exit 1 unless every case fails cleanly
 
 Each case makes its bad input in a scratch folder, then either runs the `pairgrasp` command there

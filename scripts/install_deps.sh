@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what pairgrasp needs to build and test: C++ libraries from Debian (clang and its fuzzer
-# runtime for the libFuzzer harnesses), Python packages from PyPI (atheris for the Python harness).
+# runtime for the libFuzzer harnesses, chromium for the viewer's browser test), Python packages from
+# PyPI (atheris for the Python harness, viser for the viewer).
 # Safe to run again; uses sudo only when not root.
 set -euo pipefail
 
@@ -12,6 +13,7 @@ DEBIAN_PACKAGES=(
   libeigen3-dev libfcl-dev libccd-dev libassimp-dev liburdfdom-dev
   libgtest-dev libbenchmark-dev nlohmann-json3-dev libqhull-dev
   clang libclang-rt-14-dev
+  chromium
 )
 
 missing=()
@@ -33,5 +35,5 @@ PYTHON="${PYTHON:-python3}"
 "$PYTHON" -m pip install -q --disable-pip-version-check \
   "scikit-build-core>=0.10" "pybind11>=2.12" "numpy>=1.24" "scipy>=1.10" "matplotlib>=3.6" "pytest>=7" "trimesh>=4" "libigl>=2.5" "pybullet>=3.2" \
   "mujoco>=4.0" "coacd>=1.0.14" \
-  "atheris>=2.3"
+  "atheris>=2.3" "viser>=1.0"
 echo "install_deps: done"

@@ -200,6 +200,41 @@ def _cmd_simulate(args) -> int:
     return 0
 
 
+def _cmd_view(args) -> int:
+    from . import view
+
+    if args.export is None:
+        view.import_viser()                      # before loading anything: say what is missing first
+    scene = view.load_scene(args.grasps, hand=args.hand, target=args.target)
+    if args.export is not None:
+        print(view.export_glb(scene, args.export, args.rank))
+        for note in scene.notes:
+            warnings.warn(f"{args.grasps}: {note}")
+        return 0
+    if isinstance(args.rank, int):
+        scene.grasp(args.rank)                   # an unknown rank is an error before serving
+    return view.run(scene, host=args.host, port=args.port, rank=args.rank)
+
+
+def _rank(text: str):
+    if text == "all":
+        return text
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1 or 'all', got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1 or 'all', got {text!r}")
+    return v
+
+
+def _port(text: str) -> int:
+    v = _count(0)(text)
+    if v > 65535:
+        raise argparse.ArgumentTypeError(f"expected a port number 0-65535, got {text!r}")
+    return v
+
+
 def _positive_float(text: str) -> float:
     try:
         v = float(text)
@@ -274,6 +309,19 @@ def build_parser() -> argparse.ArgumentParser:
     simu.add_argument("--no-picture", action="store_true", help="do not draw simulation.png")
     simu.add_argument("--quiet", action="store_true", help="no progress bar")
     simu.set_defaults(func=_cmd_simulate)
+    view = sub.add_parser("view", help="turn planned grasps around in the browser (viser), or write the scene "
+                          "as a glTF file")
+    view.add_argument("grasps", metavar="GRASPS", help="grasps.json written by plan")
+    view.add_argument("--export", metavar="FILE.glb",
+                      help="write the scene as binary glTF instead of serving it (needs trimesh, not viser)")
+    view.add_argument("--rank", type=_rank, metavar="K|all",
+                      help="the grasp to export or show first (default: rank 1); 'all': every grasp")
+    view.add_argument("--port", type=_port, default=8080, help="port to serve on (default 8080; 0: any free port)")
+    view.add_argument("--host", default="127.0.0.1",
+                      help="address to serve on (default 127.0.0.1; 0.0.0.0 to let other machines connect)")
+    view.add_argument("--hand", help="hand spec (default: the one recorded in the grasps file)")
+    view.add_argument("--target", help="target mesh (default: the one recorded in the grasps file)")
+    view.set_defaults(func=_cmd_view)
     return p
 
 

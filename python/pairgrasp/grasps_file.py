@@ -1,4 +1,4 @@
-"""Reading and writing ``grasps.json``, the planner's output (schema in the README).
+"""Reading and writing ``grasps.json``, the planner's output (schema in docs/grasps-json.md).
 
 :func:`load_grasps` reads a file written by ``pairgrasp plan`` (or by hand, with the required fields)
 back into :class:`pairgrasp.Grasp` objects, checking every field: a malformed file raises

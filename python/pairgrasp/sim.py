@@ -47,8 +47,8 @@ translates (the shake). For the turns it leaves out the rotating frame's terms: 
 **Success** is decided by the object's pose relative to the palm after closing against its pose
 during the load and shake phases: the largest displacement of its centre of mass must stay below
 ``max_translation`` (10 mm) and its largest rotation below ``max_rotation`` (0.2 rad, 11.5°). An
-object that is held moves by the contacts' compliance only (a few millimetres: see the README's
-Physics check section for measured figures), a dropped one falls without bound (the run stops once
+object that is held moves by the contacts' compliance only (a few millimetres: see docs/physics.md
+for measured figures), a dropped one falls without bound (the run stops once
 it has moved 5 times the thresholds), and a grasp whose object has slid by more than a centimetre
 (two of the planner's 5 mm unit facets) or turned by more than 11° no longer has the planned
 contacts. :attr:`SimResult.outcome` tells a grasp that slipped but kept the object from one that

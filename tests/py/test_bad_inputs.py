@@ -1,4 +1,4 @@
-"""Every bad input of scripts/bad_inputs.py (the README's table) fails cleanly: the command exits
+"""Every bad input of scripts/bad_inputs.py (the table in docs/reliability.md) fails cleanly: the command exits
 non-zero with one `pairgrasp: error:` line naming the file or field and no traceback, leaving no output
 folder; an API call raises the documented exception with a one-line message naming the field."""
 import importlib.util

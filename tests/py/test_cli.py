@@ -72,6 +72,7 @@ def _write_ply(path, vertices, faces):
     return str(path)
 
 
+@pytest.mark.slow
 def test_plan_in_millimetres_with_scale_equals_the_plan_in_metres(tmp_path):
     """The mug in millimetres planned with --scale 0.001 gives the same grasps as the mug in metres
     (the metre file holds the millimetre coordinates times 0.001, so the planner sees the same mesh),
@@ -94,6 +95,7 @@ def test_plan_in_millimetres_with_scale_equals_the_plan_in_metres(tmp_path):
     assert wrong.returncode != 0 and "--scale" in wrong.stderr and not (tmp_path / "wrong").exists()
 
 
+@pytest.mark.slow
 def test_figures_draw_the_plans_data(tmp_path, monkeypatch, barrett_flask):
     """`pairgrasp figures` (in process) draws Figure 8 from exactly the candidates of the same plan
     (the session's Barrett flask plan: the candidates do not depend on fine-tuning), and Figure 7's

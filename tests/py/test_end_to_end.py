@@ -5,6 +5,9 @@ distances, SciPy's hull over wrenches built here), not against the planner's own
 Targets: the bundled flask and mug with their paint (the flask's neck top and the mug's rim are not
 reachable), pybullet_data's duck (a mesh nobody here made), and a box on a table held at one corner,
 the table and the holder given as obstacles and occluders.
+
+`make test` runs the flask's checks (the plan is shared with test_planner.py); the mug, the duck and
+the box in a scene are marked slow and run in `make check` (`pytest -m slow`).
 """
 import json
 
@@ -15,7 +18,8 @@ import independent as ind
 import pairgrasp as pg
 from conftest import BARRETT, E2E
 
-PLANS = ["barrett_flask", "barrett_mug", "barrett_duck"]
+PLANS = ["barrett_flask", pytest.param("barrett_mug", marks=pytest.mark.slow),
+         pytest.param("barrett_duck", marks=pytest.mark.slow)]
 # Independent depth against the reported one and the tolerance: the planner samples the surfaces
 # 1.25 mm apart and independent.py 0.75 mm apart, so depth between samples may differ a little.
 DEPTH_SLACK = 0.00025
@@ -94,6 +98,7 @@ def test_grasps_are_within_the_hands_limits(plan):
         assert np.all(g.dofs >= lo - 1e-12) and np.all(g.dofs <= hi + 1e-12)
 
 
+@pytest.mark.slow
 def test_settled_grasps_are_their_aligned_pose_backed_off(barrett_flask, barrett_mug):
     """Unless fine-tuned, a grasp's wrist is its aligned pose moved back along the approach axis by
     the reported back-off; the Barrett plans do back off (the palm and knuckles stand above the
@@ -112,6 +117,7 @@ def test_settled_grasps_are_their_aligned_pose_backed_off(barrett_flask, barrett
     assert checked >= 4 and backed >= 2
 
 
+@pytest.mark.slow
 def test_barrett_plans_settle_and_deepen(barrett_flask, barrett_mug):
     """The Barrett paths the jaw never takes: most aligned poses penetrate and are adjusted, and where
     force closure is rare the coarse samples' next poses are taken (deepening)."""
@@ -164,6 +170,7 @@ def _clearances(planner, g):
     return ind.box_clearance(links, *TABLE), ind.box_clearance(links, *HOLDER), far
 
 
+@pytest.mark.slow
 def test_obstacles_and_occluders_are_kept_clear(box_in_a_scene):
     """No grasp's hand enters the table or the holder (closed-form box distances of dense samples of
     the link meshes, and the boxes' samples inside the links), and every contact lies on a face the
@@ -177,6 +184,7 @@ def test_obstacles_and_occluders_are_kept_clear(box_in_a_scene):
         assert contacts >= OCCLUDER_DISTANCE - GAP - 1e-9, f"rank {g.rank} touches an occluded face"
 
 
+@pytest.mark.slow
 def test_removing_the_obstacles_changes_the_grasps(box_in_a_scene, box_alone):
     """Without the table and the holder the same plan returns other grasps, some of which would
     touch them: the obstacles and occluders are what kept the scene's grasps clear."""
