@@ -93,9 +93,17 @@ inline Pose pose_from(const pyb::handle& obj, const std::string& name) {
 }
 
 /// A per-face mask from a 1-D bool array (None: nothing); std::invalid_argument("<name>: ...").
-std::optional<Mask> mask_from(const pyb::handle& obj, const std::string& name);  // bind_validation.cpp
+std::optional<Mask> mask_from(const pyb::handle& obj, const std::string& name);  // bind_query.cpp
 /// Obstacles from a list of Mesh, of (name, Mesh) pairs, or a dict name -> Mesh (None: none).
-std::vector<Obstacle> obstacles_from(const pyb::handle& obj);  // bind_validation.cpp
+std::vector<Obstacle> obstacles_from(const pyb::handle& obj);  // bind_collision.cpp
+
+/// A (F,) bool NumPy array of a mask.
+inline pyb::array_t<bool> mask_to_numpy(const Mask& m) {
+  pyb::array_t<bool> a(m.size());
+  std::copy(m.data(), m.data() + m.size(), a.mutable_data());
+  return a;
+}
+
 
 void bind_errors(pyb::module_& m);     // bind_errors.cpp: FileError -> pairgrasp.FileError(RuntimeError)
 void bind_mesh(pyb::module_& m);       // bind_mesh.cpp: Mesh, load_mesh, make_mesh
@@ -103,7 +111,8 @@ void bind_hand(pyb::module_& m);       // bind_hand.cpp: Hand, load_hand, Conste
 void bind_paint(pyb::module_& m);      // bind_paint.cpp: paint files -> per-face free mask
 void bind_surface(pyb::module_& m);    // bind_surface.cpp: tessellate, UnitFacets, pair_feature, PairIndex
 void bind_alignment(pyb::module_& m);  // bind_alignment.cpp: solve_pair_pose, Aligner
-void bind_validation(pyb::module_& m); // bind_validation.cpp: SurfaceQuery, occluded_by, visible_from, GraspChecker
+void bind_query(pyb::module_& m);      // bind_query.cpp: SurfaceQuery, occluded_by, visible_from, combine_free
+void bind_collision(pyb::module_& m);  // bind_collision.cpp: GraspChecker, close, contacts, closing_directions
 void bind_quality(pyb::module_& m);    // bind_quality.cpp: contact wrenches, grasp quality (epsilon)
 void bind_planning(pyb::module_& m);   // bind_planning.cpp: evaluate_grasp, fine_tune, CandidatePipeline, GraspPlanner
 }  // namespace pairgrasp::py

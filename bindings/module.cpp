@@ -12,7 +12,8 @@ PYBIND11_MODULE(_core, m) {
   pairgrasp::py::bind_paint(m);
   pairgrasp::py::bind_surface(m);
   pairgrasp::py::bind_alignment(m);
-  pairgrasp::py::bind_validation(m);
+  pairgrasp::py::bind_query(m);
+  pairgrasp::py::bind_collision(m);
   pairgrasp::py::bind_quality(m);
   pairgrasp::py::bind_planning(m);
 }

@@ -19,12 +19,12 @@
 
 namespace pairgrasp {
 
-namespace vd = validation_detail;
+namespace vd = geometry_detail;
 using vd::Vec3;
 
 // ---------------------------------------------------------------- helpers
 
-namespace validation_detail {
+namespace geometry_detail {
 
 std::shared_ptr<FclModel> make_fcl_model(const Points& vertices, const Triangles& faces,
                                          const std::vector<int>& subset) {
@@ -155,7 +155,7 @@ double deepest_inside(const SurfaceSamples& samples, const Pose& to_b, const Sur
   return best;
 }
 
-}  // namespace validation_detail
+}  // namespace geometry_detail
 
 void check_rigid(const Pose& pose, const char* what) {
   const Eigen::Matrix4d& m = pose.matrix();

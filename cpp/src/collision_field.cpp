@@ -20,11 +20,11 @@
 
 namespace pairgrasp {
 
-namespace vd = validation_detail;
+namespace vd = geometry_detail;
 using vd::Interval;
 using vd::Vec3;
 
-namespace validation_detail {
+namespace geometry_detail {
 
 Interval LinkDistance::at(const Vec3& q) const {
   if (field) {
@@ -106,7 +106,7 @@ SphereTree make_sphere_tree(const Mesh& mesh, const std::vector<int>& faces, dou
   return out;
 }
 
-}  // namespace validation_detail
+}  // namespace geometry_detail
 
 void GraspChecker::Impl::build_fields() {
   const double cell = options.field_cell;

@@ -20,7 +20,7 @@
 
 namespace pairgrasp {
 
-namespace validation_detail {
+namespace geometry_detail {
 
 using FclModel = fcl::BVHModel<fcl::OBBRSSd>;
 
@@ -156,7 +156,7 @@ struct PairCheck {
   double depth = 0.0;
 };
 
-}  // namespace validation_detail
+}  // namespace geometry_detail
 
 struct GraspChecker::Impl {
   Hand hand;
@@ -166,9 +166,9 @@ struct GraspChecker::Impl {
   CheckOptions options;
   double sample_spacing = 0.0;
 
-  std::vector<validation_detail::LinkModel> links;
-  std::vector<validation_detail::SceneModel> scene;  ///< [0] target, then obstacles
-  std::shared_ptr<validation_detail::FclModel> occluded;  ///< target's occluded faces (null: none)
+  std::vector<geometry_detail::LinkModel> links;
+  std::vector<geometry_detail::SceneModel> scene;  ///< [0] target, then obstacles
+  std::shared_ptr<geometry_detail::FclModel> occluded;  ///< target's occluded faces (null: none)
   Eigen::AlignedBox3d occluded_bounds;
   std::unique_ptr<SurfaceQuery> occluded_query;   ///< the occluded faces alone (unsigned)
   std::unique_ptr<DistanceField> occluded_field;  ///< unsigned distance to the occluded faces
@@ -181,16 +181,16 @@ struct GraspChecker::Impl {
 
   /// One link (index l, pose in the target frame) against scene model s. The depth searches stop
   /// once a depth beyond `stop` (m) is found (a lower bound then).
-  validation_detail::PairCheck check_pair(int l, const Pose& pose, int s,
+  geometry_detail::PairCheck check_pair(int l, const Pose& pose, int s,
                                           double stop = std::numeric_limits<double>::infinity()) const;
   /// Whether link l at `pose` comes within the contact gap of an occluded target face.
   bool touches_occluded(int l, const Pose& pose) const;
   /// check_pair() through the distance fields: the same flags, depth within the field's bound;
   /// the exact check_pair() decides wherever the bounds do not.
-  validation_detail::PairCheck field_pair(int l, const Pose& pose, int s,
+  geometry_detail::PairCheck field_pair(int l, const Pose& pose, int s,
                                           double stop = std::numeric_limits<double>::infinity()) const;
   /// field_pair() or check_pair(), as options.use_distance_field says.
-  validation_detail::PairCheck pair(int l, const Pose& pose, int s,
+  geometry_detail::PairCheck pair(int l, const Pose& pose, int s,
                                     double stop = std::numeric_limits<double>::infinity()) const {
     return options.use_distance_field ? field_pair(l, pose, s, stop) : check_pair(l, pose, s, stop);
   }

@@ -11,7 +11,7 @@
 
 namespace pairgrasp {
 
-namespace vd = validation_detail;
+namespace vd = geometry_detail;
 
 namespace {
 

@@ -176,7 +176,7 @@ std::uint64_t splitmix64(std::uint64_t x) {
   return x ^ (x >> 31);
 }
 
-using validation_detail::closest_on_triangle;
+using geometry_detail::closest_on_triangle;
 
 struct Nearest {
   double d2 = std::numeric_limits<double>::infinity();

@@ -13,7 +13,7 @@
 
 namespace pairgrasp {
 
-namespace vd = validation_detail;
+namespace vd = geometry_detail;
 using vd::Vec3;
 
 const char* to_string(StopReason reason) {

@@ -30,7 +30,7 @@ LinkSample per_link_sample(const Mesh& mesh, const std::vector<int>& faces) {
   double best = std::numeric_limits<double>::infinity();
   int best_face = faces.front();
   for (int f : faces) {
-    const Eigen::Vector3d q = validation_detail::closest_on_triangle(centroid, corner(f, 0), corner(f, 1), corner(f, 2));
+    const Eigen::Vector3d q = geometry_detail::closest_on_triangle(centroid, corner(f, 0), corner(f, 1), corner(f, 2));
     const double d = (q - centroid).squaredNorm();
     if (d < best) best = d, s.point = q, best_face = f;
   }

@@ -13,10 +13,10 @@
 
 namespace pairgrasp {
 
-using validation_detail::Bvh;
-using validation_detail::BvhNode;
-using validation_detail::Vec3;
-namespace vd = validation_detail;
+using geometry_detail::Bvh;
+using geometry_detail::BvhNode;
+using geometry_detail::Vec3;
+namespace vd = geometry_detail;
 
 namespace {
 

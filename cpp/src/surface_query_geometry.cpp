@@ -1,5 +1,5 @@
-// Geometric primitives, the flat AABB tree builder, surface sampling and the parallel loop of
-// the validation area (surface queries, reachability, collision, closing, contacts).
+// Geometric primitives, the flat AABB tree builder and surface sampling of
+// the surface queries, reachability, collision, closing and contacts.
 #include "surface_query_internal.hpp"
 
 #include <algorithm>
@@ -12,7 +12,7 @@
 #include <string>
 #include <thread>
 
-namespace pairgrasp::validation_detail {
+namespace pairgrasp::geometry_detail {
 
 Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, int& feature) {
   const Vec3 ab = b - a, ac = c - a, ap = p - a;
@@ -341,4 +341,4 @@ std::vector<int> vertex_components(const Points& vertices, const Triangles& face
   return comp;
 }
 
-}  // namespace pairgrasp::validation_detail
+}  // namespace pairgrasp::geometry_detail

@@ -1,5 +1,5 @@
 #pragma once
-// Internal geometry of the validation area: triangle/segment primitives, a flat AABB tree
+// Internal geometry of surface queries and collision: triangle/segment primitives, a flat AABB tree
 // builder, surface sampling and a deterministic parallel loop. Not part of the public API.
 #include <pairgrasp/types.hpp>
 
@@ -11,7 +11,7 @@
 #include <functional>
 #include <vector>
 
-namespace pairgrasp::validation_detail {
+namespace pairgrasp::geometry_detail {
 
 using Vec3 = Eigen::Vector3d;
 
@@ -108,4 +108,4 @@ std::vector<int> vertex_components(const Points& vertices, const Triangles& face
 /// Parallel loops run on the library's one pool (thread_pool.hpp).
 using detail::parallel_for;  // the shared pool (thread_pool.hpp)
 
-}  // namespace pairgrasp::validation_detail
+}  // namespace pairgrasp::geometry_detail

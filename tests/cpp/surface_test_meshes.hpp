@@ -2,7 +2,7 @@
 // Test meshes for the surface tests, built from their dimensions (independent of the library).
 #include <pairgrasp/mesh.hpp>
 
-#include "validation_test_meshes.hpp"
+#include "test_meshes.hpp"
 
 #include <cmath>
 #include <vector>
@@ -63,7 +63,7 @@ inline Mesh fan_cylinder(double r, double h, int seg) {
 }
 
 /// Icosphere of radius r: an icosahedron subdivided `level` times, vertices pushed to the sphere
-/// (the validation tests' construction).
+/// (the collision tests' construction).
 inline Mesh icosphere(double r, int level) { return pairgrasp::testing_meshes::icosphere(r, level); }
 
 /// Area of a face computed from its vertices.

@@ -8,8 +8,8 @@
 #include <random>
 #include <stdexcept>
 
-#include "validation_test_hands.hpp"
-#include "validation_test_meshes.hpp"
+#include "test_hands.hpp"
+#include "test_meshes.hpp"
 
 using namespace pairgrasp;
 using Eigen::Vector3d;

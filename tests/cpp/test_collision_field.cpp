@@ -14,7 +14,7 @@
 #include <random>
 #include <string>
 
-#include "validation_test_meshes.hpp"
+#include "test_meshes.hpp"
 
 using namespace pairgrasp;
 using Eigen::Vector3d;

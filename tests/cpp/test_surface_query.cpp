@@ -9,7 +9,7 @@
 #include <random>
 #include <stdexcept>
 
-#include "validation_test_meshes.hpp"
+#include "test_meshes.hpp"
 
 using namespace pairgrasp;
 using Eigen::Vector3d;
@@ -517,7 +517,7 @@ TEST(SurfaceSampling, CoversEveryFaceWithinTheSpacingWithoutOversamplingThinFace
   for (const Mesh* m : {&tube, &ball}) {
     for (double s : {0.002, 0.005}) {
       std::vector<int> owner;
-      const Points S = pairgrasp::validation_detail::sample_surface(m->vertices, m->faces, {}, s, &owner);
+      const Points S = pairgrasp::geometry_detail::sample_surface(m->vertices, m->faces, {}, s, &owner);
       ASSERT_EQ(static_cast<Eigen::Index>(owner.size()), S.rows());
       // Count: about area / s^2 (a barycentric grid on these 100 mm faces would give 20x more).
       double edges = 0;

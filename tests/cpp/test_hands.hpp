@@ -1,5 +1,5 @@
 #pragma once
-// Test hands for the validation tests: a one-link "probe" (a 20 mm cube on a prismatic slide)
+// Test hands for the collision, closing and contact tests: a one-link "probe" (a 20 mm cube on a prismatic slide)
 // written as URDF + spec into a temporary directory, and the bundled models.
 #include <pairgrasp/hand.hpp>
 
@@ -19,7 +19,7 @@ struct TempDir {
   TempDir() {
     std::random_device rd;
     path = fs::temp_directory_path() /
-           ("pairgrasp_validation_" + std::to_string(rd()) + "_" +
+           ("pairgrasp_test_hand_" + std::to_string(rd()) + "_" +
             std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
     fs::create_directories(path);
   }

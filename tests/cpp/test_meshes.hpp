@@ -1,5 +1,5 @@
 #pragma once
-// Simple meshes with known geometry for the validation tests (surface queries, collision,
+// Simple meshes with known geometry for the tests of surface queries, collision,
 // closing, contacts). Built here from dimensions, independent of the library's mesh code.
 #include <pairgrasp/mesh.hpp>
 
