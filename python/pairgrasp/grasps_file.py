@@ -17,7 +17,7 @@ from typing import List, Optional
 import numpy as np
 
 from ._core import FileError
-from .planner import Grasp
+from .results import Grasp
 
 __all__ = ["GRASPS_FORMAT", "GraspsFile", "load_grasps", "parse_grasps", "write_grasps"]
 

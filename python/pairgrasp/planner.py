@@ -1,9 +1,14 @@
 """The grasp planner: the whole pipeline of the method in one call.
 
-:class:`Planner` builds the target's unit facets and pair index once, schedules DOF samples of the
-hand, aligns each sample's constellation with the target (:class:`pairgrasp.Aligner`), settles each
-aligned pose out of penetration, closes the fingers onto contact, scores the contacts on free faces
-(Ferrari-Canny epsilon), fine-tunes the best grasps and ranks them.
+:class:`Planner` is the scheduler. It builds a C++ :class:`pairgrasp.GraspPlanner` once (the
+parameters resolved from the hand and the target, the target's unit facets and pair index, the
+aligner and the grasp checker), decides which DOF samples of the hand to align (the schedules,
+early rejection, refinement, deepening, the time limit), and hands each chunk of aligned
+candidates to the C++ :class:`pairgrasp.CandidatePipeline`, which settles each pose out of
+penetration, closes the fingers onto contact, scores the contacts on free faces (Ferrari-Canny
+epsilon) on the library's thread pool, and at the end fine-tunes the best grasps and ranks them.
+The parameters are :class:`pairgrasp.PlanParams` (``params.py``); what a plan returns is in
+``results.py``. ``pairgrasp.plan_samples`` runs a given list of samples the same way from C++.
 
 Stages (the keys of :attr:`PlanResult.timings`):
 
@@ -29,7 +34,7 @@ Stages (the keys of :attr:`PlanResult.timings`):
     rank at a time up to ``max_poses_per_sample``. The extra poses come from alignments already
     made; Q_A hardly orders epsilon (Figure 8), so on a target like the mug, where ~1% of the
     candidates close, the poses below the first few are where the good grasps are.
-``settle``
+``settle`` (C++, ``candidates.hpp``)
     A candidate is kept as aligned when it does not penetrate (depth within ``depth_tolerance``, no
     occluded face, no obstacle). Otherwise it is *adjusted* with the least change to the aligned
     grasp: the wrist backs off along the hand's approach axis until the links no closing DOF moves
@@ -38,12 +43,13 @@ Stages (the keys of :attr:`PlanResult.timings`):
     pose fixes the approach line, roll and spread, and the aligned finger shape is kept where it
     fits; a 0.25 rad grid point puts a fingertip up to ~30 mm from where it would touch, so the
     fingers are closed onto contact in the next stage anyway. A candidate still pruned is dropped.
-``evaluate``
+``evaluate`` (C++)
     Candidates that settle to the same pose (within ``h``, ~3 degrees and half a DOF step) are
     evaluated once. Each is closed onto contact, checked and scored (:func:`pairgrasp.evaluate_grasp`)
-    on all cores.
-``fine_tune``
-    The ``fine_tune`` best distinct grasps are refined by :func:`pairgrasp.fine_tune`.
+    on the library's thread pool; the search skips the hull volume.
+``fine_tune`` (C++)
+    The ``fine_tune`` best distinct grasps are refined by :func:`pairgrasp.fine_tune` (its trials on
+    the thread pool), and the returned grasps are scored again with every contact.
 
 Ranking: force closure first, then epsilon, then Q_A, then votes. Epsilon is the quantity users
 act on; Q_A says how well the hand's shape matched the surface before closing, and the planned
@@ -57,285 +63,20 @@ rank k uses ``seed + k``.
 from __future__ import annotations
 
 import itertools
-import math
-import numbers
 import os
 import sys
 import time
-from dataclasses import asdict, dataclass, field, fields, replace
-from typing import Dict, List, Optional, Sequence, Tuple
+from dataclasses import asdict, dataclass, fields, replace
+from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
 from . import _core
 from .checks import warn_if_open
+from .params import PlanParams, with_overrides
+from .results import Candidate, Grasp, PlanResult, _round
 
 __all__ = ["PlanParams", "Grasp", "Candidate", "PlanResult", "Planner", "dof_grid"]
-
-
-@dataclass
-class PlanParams:
-    """Parameters of :class:`Planner` (metres, radians).
-
-    Attributes:
-        schedule: ``"grid"`` (exhaustive) or ``"fast"`` (coarse-to-fine with early rejection).
-        step: sampling step (rad) of every angular DOF; None: the hand's ``dof_step``. Linear DOFs
-            keep the hand's step.
-        edge: unit-facet edge h (m); None: 5 mm, or 1/15 of the target's smallest extent if
-            smaller, or coarser when the pair budget requires it (:func:`pairgrasp.suggest_edge`).
-        d_max: largest stored pair distance (m); None: the largest distance between two samples
-            of the hand's constellations over its DOF range, plus h.
-        max_pairs: pair budget of the index.
-        constellation: ``"per_link"`` (the paper's one sample per active link), ``"area"`` (samples
-            ``spacing`` apart over the active surfaces) or ``"auto"``: per-link unless every
-            per-link pair is antipodal or there are fewer than 3 per-link samples (a parallel
-            jaw), then area.
-        spacing: area-sample spacing (m); None: the smallest multiple of h giving at most
-            ``max_area_samples`` samples at mid-range.
-        max_area_samples: see ``spacing``.
-        poses_per_sample: aligned poses per DOF sample that become candidates (None: the
-            schedule's, 3 for ``grid`` and 6 for ``fast``).
-        min_match_fraction: early rejection threshold, relative to the best sample of the first
-            grid (the fraction of a sample's gripper pairs that match a target pair).
-        reject: apply the early rejection (None: only for ``fast``).
-        coarse_factor: ``fast``: the coarse grid's step in fine steps (every ``coarse_factor``-th
-            value, and the upper limit when it lies more than half a coarse step beyond the last).
-        refine: ``fast``: coarse samples whose fine-grid neighbourhoods are sampled.
-        refine_rounds: ``fast``: rounds of refinement; each round samples the neighbourhoods of
-            the ``refine`` best samples so far that were not centres yet.
-        min_force_closure_rate, max_poses_per_sample: ``fast``: while a smaller fraction than
-            ``min_force_closure_rate`` of the evaluated candidates is force-closure after the
-            refinement, the next-ranked aligned pose of every coarse sample becomes a candidate
-            too, one rank at a time, up to ``max_poses_per_sample`` poses per sample: a target where
-            force closure is rare gets more pose hypotheses from the alignments already made.
-        depth_tolerance: penetration tolerated (m); None: h / 4.
-        gap: contact gap (m).
-        backoff: largest back-off along the approach axis when settling (m); None: the hand's
-            reach (the largest distance of a constellation sample from the wrist) / 2.
-        max_evaluations: candidates closed and scored at most, best Q_A first within each chunk
-            (None: all).
-        chunk: DOF samples aligned, settled and evaluated together; grasps come out chunk by chunk
-            (results do not depend on the thread count, they do on the chunk).
-        time_limit: seconds after which no further chunk is searched and no further grasp is
-            fine-tuned (an anytime plan for on-line use; None: no limit). The chunk under way, the
-            ranking and the final scoring of the returned grasps still finish, and samples left
-            out are counted as ``skipped``. A plan that hits the limit depends on the machine's
-            speed, so it is not reproducible the way a plan without one is.
-        fine_tune: how many of the best grasps are fine-tuned.
-        fine_tune_iterations: trials per fine-tuned grasp.
-        contacts_per_link: while searching, epsilon is computed from at most this many contacts per
-            link (:func:`pairgrasp.reduce_contacts`, a lower bound); the returned grasps are scored
-            again with every contact. None: every contact throughout (slower by ~10x on the Barrett
-            hand, whose links report patches of ~100 contacts).
-        mu, edges: friction coefficient and friction-pyramid edges.
-        top: grasps returned.
-        seed: seed of the fine-tuning.
-        threads: worker threads (0: every core).
-    """
-
-    schedule: str = "fast"
-    step: Optional[float] = None
-    edge: Optional[float] = None
-    d_max: Optional[float] = None
-    max_pairs: int = 20_000_000
-    constellation: str = "auto"
-    spacing: Optional[float] = None
-    max_area_samples: int = 24
-    poses_per_sample: Optional[int] = None
-    min_match_fraction: float = 0.15
-    reject: Optional[bool] = None
-    coarse_factor: int = 3
-    refine: int = 6
-    refine_rounds: int = 1
-    min_force_closure_rate: float = 0.05
-    max_poses_per_sample: int = 12
-    depth_tolerance: Optional[float] = None
-    gap: float = 0.001
-    backoff: Optional[float] = None
-    max_evaluations: Optional[int] = None
-    chunk: int = 128
-    time_limit: Optional[float] = None
-    fine_tune: int = 5
-    fine_tune_iterations: int = 20
-    contacts_per_link: Optional[int] = 6
-    mu: float = 0.5
-    edges: int = 8
-    top: int = 10
-    seed: int = 0
-    threads: int = 0
-
-    def validate(self) -> None:
-        """Raises ValueError naming the first bad field."""
-        if self.schedule not in ("grid", "fast"):
-            raise ValueError(f"schedule: expected 'grid' or 'fast', got {self.schedule!r}")
-        if self.constellation not in ("auto", "per_link", "area"):
-            raise ValueError(f"constellation: expected 'auto', 'per_link' or 'area', got {self.constellation!r}")
-        for name in ("step", "edge", "d_max", "spacing", "backoff", "depth_tolerance", "time_limit"):
-            v = getattr(self, name)
-            if v is not None:
-                _positive(name, v, allow_zero=name in ("backoff", "depth_tolerance"))
-        _positive("gap", self.gap, allow_zero=True)
-        _positive("mu", self.mu, allow_zero=True)
-        for name in ("min_match_fraction", "min_force_closure_rate"):
-            v = getattr(self, name)
-            if not (isinstance(v, numbers.Real) and not isinstance(v, bool) and 0.0 <= v <= 1.0):
-                raise ValueError(f"{name}: expected a number in [0, 1], got {v!r}")
-        if self.poses_per_sample is not None:
-            _integer("poses_per_sample", self.poses_per_sample, 1)
-        for name, low in (("max_pairs", 1), ("max_area_samples", 3), ("max_poses_per_sample", 1),
-                          ("coarse_factor", 1), ("refine", 0), ("refine_rounds", 0), ("chunk", 1), ("fine_tune", 0), ("fine_tune_iterations", 0),
-                          ("edges", 3), ("top", 1), ("seed", 0), ("threads", 0)):
-            _integer(name, getattr(self, name), low)
-        if self.max_evaluations is not None:
-            _integer("max_evaluations", self.max_evaluations, 1)
-        if self.contacts_per_link is not None:
-            _integer("contacts_per_link", self.contacts_per_link, 1)
-
-    def poses(self) -> Tuple[int, int]:
-        """(poses per sample, poses per coarse sample at most) of this schedule."""
-        first = self.poses_per_sample if self.poses_per_sample is not None else (6 if self.schedule == "fast" else 3)
-        return first, (max(first, self.max_poses_per_sample) if self.schedule == "fast" else first)
-
-
-def _positive(name, value, allow_zero=False):
-    ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(float(value))
-    if not ok or float(value) < 0.0 or (not allow_zero and float(value) == 0.0):
-        raise ValueError(f"{name}: expected a finite number {'>=' if allow_zero else '>'} 0, got {value!r}")
-
-
-def _integer(name, value, low):
-    if isinstance(value, bool) or not isinstance(value, (numbers.Integral, np.integer)) or value < low:
-        raise ValueError(f"{name}: expected an integer >= {low}, got {value!r}")
-
-
-@dataclass(frozen=True, eq=False)
-class Grasp:
-    """One planned grasp.
-
-    Attributes:
-        rank: 1 for the best.
-        wrist_pose: (4,4) wrist frame in the target frame (m).
-        dofs: (D,) closed DOF values, in the hand's DOF order.
-        joints: {joint name: value} of every moving joint (mimics applied).
-        epsilon, volume, force_closure: Ferrari-Canny quality of the contacts on free faces.
-        alignment_quality: Q_A of the alignment the grasp came from.
-        votes: rotation votes of that alignment.
-        penetration_depth: largest penetration depth of the hand (m), within the tolerance.
-        contact_points, contact_normals: (C,3) contacts and outward target normals.
-        contact_links: link of each contact.
-        sample: (D,) the DOF sample that was aligned.
-        aligned_pose: (4,4) the aligned wrist pose before settling.
-        backoff: distance the wrist backed off along the approach axis (m).
-        fine_tuned: the grasp is a fine-tuning trial better than the planned one.
-    """
-
-    rank: int
-    wrist_pose: np.ndarray
-    dofs: np.ndarray
-    joints: Dict[str, float]
-    epsilon: float
-    volume: float
-    force_closure: bool
-    alignment_quality: float
-    votes: int
-    penetration_depth: float
-    contact_points: np.ndarray
-    contact_normals: np.ndarray
-    contact_links: Tuple[str, ...]
-    sample: np.ndarray
-    aligned_pose: np.ndarray
-    backoff: float
-    fine_tuned: bool
-
-    def to_dict(self) -> dict:
-        """JSON-ready dictionary (the grasps.json schema)."""
-        return {
-            "rank": self.rank,
-            "wrist_pose": _round(self.wrist_pose),
-            "dof": _round(self.dofs),
-            "joints": {k: _round(v) for k, v in self.joints.items()},
-            "epsilon": _round(self.epsilon),
-            "volume": _round(self.volume),
-            "force_closure": bool(self.force_closure),
-            "alignment_quality": _round(self.alignment_quality),
-            "votes": int(self.votes),
-            "penetration_depth": _round(self.penetration_depth),
-            "contacts": [{"point": _round(p), "normal": _round(n), "link": link}
-                         for p, n, link in zip(self.contact_points, self.contact_normals, self.contact_links)],
-            "sample": _round(self.sample),
-            "aligned_pose": _round(self.aligned_pose),
-            "backoff": _round(self.backoff),
-            "fine_tuned": bool(self.fine_tuned),
-        }
-
-
-@dataclass(frozen=True)
-class Candidate:
-    """An evaluated candidate (for Figure 8): its sample index, Q_A, votes and outcome, and ``time``:
-    seconds from the start of :meth:`Planner.plan` until its evaluation finished (index excluded)."""
-
-    sample: int
-    alignment_quality: float
-    votes: int
-    epsilon: float
-    force_closure: bool
-    settled: str  # "aligned" or "adjusted" (see Planner._settle)
-    time: float = 0.0
-
-
-@dataclass
-class PlanResult:
-    """What :meth:`Planner.plan` returns.
-
-    Attributes:
-        grasps: ranked grasps (at most ``params.top``), best first.
-        candidates: every evaluated candidate, in evaluation order.
-        timings: seconds per stage.
-        counts: unit facets, stored pairs, DOF samples (scheduled, rejected, aligned), candidates
-            (aligned poses, settled, evaluated), force-closure grasps.
-        edge, d_max: the unit-facet edge and pair distance used (m).
-        constellation, spacing: the constellation mode and spacing used.
-        params: the parameters (defaults resolved).
-        inputs: file names and hand/target summaries.
-    """
-
-    grasps: List[Grasp]
-    candidates: List[Candidate]
-    timings: Dict[str, float]
-    counts: Dict[str, int]
-    edge: float
-    d_max: float
-    constellation: str
-    spacing: Optional[float]
-    params: PlanParams
-    inputs: dict
-
-    @property
-    def best_epsilon(self) -> float:
-        return max((g.epsilon for g in self.grasps), default=0.0)
-
-    def to_dict(self) -> dict:
-        """The grasps.json document (timings under the top-level key ``timings``)."""
-        return {
-            "format": "pairgrasp.grasps/1",
-            "inputs": self.inputs,
-            # Every parameter but threads, which changes how the plan runs, not what it finds.
-            "parameters": {**{k: v for k, v in asdict(self.params).items() if k != "threads"},
-                           "poses_per_sample": self.params.poses()[0],
-                           "edge": _round(self.edge), "d_max": _round(self.d_max),
-                           "constellation": self.constellation,
-                           "spacing": None if self.spacing is None else _round(self.spacing)},
-            "counts": dict(self.counts),
-            "timings": {k: round(v, 4) for k, v in self.timings.items()},
-            "grasps": [g.to_dict() for g in self.grasps],
-        }
-
-
-def _round(x, digits: int = 9):
-    """Floats rounded to `digits` decimals (nm / nrad), arrays to nested lists."""
-    if isinstance(x, np.ndarray):
-        return np.round(x.astype(float), digits).tolist()
-    return round(float(x), digits)
 
 
 def dof_grid(lower: Sequence[float], upper: Sequence[float], step: Sequence[float]) -> List[np.ndarray]:
@@ -398,19 +139,6 @@ def _rank_key(c) -> tuple:
     pruned, force closure, epsilon, Q_A, votes."""
     e = c.evaluation
     return (not e.pruned, bool(e.force_closure), float(e.epsilon), c.quality, c.votes)
-
-
-def with_overrides(cls, params, overrides: dict, what: str):
-    """A validated copy of the parameter dataclass ``params`` (None: the defaults) with the fields in
-    ``overrides`` replaced; ValueError for a field ``cls`` does not have."""
-    out = cls(**asdict(params)) if params is not None else cls()
-    names = {f.name for f in fields(cls)}
-    for k, v in overrides.items():
-        if k not in names:
-            raise ValueError(f"unknown {what} parameter {k!r}")
-        setattr(out, k, v)
-    out.validate()
-    return out
 
 
 def _as_mesh(value, name):

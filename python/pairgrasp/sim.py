@@ -67,7 +67,8 @@ import numpy as np
 from . import _core
 from .convex import DEFAULT_THRESHOLD, convex_pieces
 from .inertia import mass_properties
-from .planner import _as_mesh, with_overrides
+from .params import with_overrides
+from .planner import _as_mesh
 
 __all__ = ["SimParams", "SimResult", "Simulator", "SimReport", "simulate_grasps", "import_mujoco"]
 
