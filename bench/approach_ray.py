@@ -184,7 +184,7 @@ class ApproachRaySampler:
 
     def __init__(self, checker, preshapes=None, rolls=None, standoffs=None, delta: float = 0.02,
                  backup_step: float = 0.05, max_backup: float = 0.5, resolution: float = 0.001,
-                 center=None, radius=None, mu: float = 0.5, edges: int = 8, contacts_per_link: Optional[int] = 6):
+                 center=None, radius=None, mu: float = 0.5, edges: int = 8, contacts_per_link: Optional[int] = 4):
         self.checker = checker
         self.hand = checker.hand
         lo = np.asarray(self.hand.dof_lower, float)

@@ -328,19 +328,20 @@ void bind_planning(pyb::module_& m) {
       "the checker.")
       .def(pyb::init([](const GraspChecker& checker, double edge, double backoff, const pyb::object& steps,
                         const pyb::object& center, const pyb::object& radius, double mu, int edges,
-                        const pyb::object& contacts_per_link, int max_evaluations, int threads) {
+                        const pyb::object& contacts_per_link, int max_evaluations, int hull_rank, int threads) {
              PipelineOptions o;
              o.edge = edge;
              o.backoff = backoff;
              if (!steps.is_none()) o.steps = vector_from(steps, "steps");
              o.evaluate = evaluate_options(center, radius, mu, edges, false, std::nullopt, contacts_per_link, checker);
              o.max_evaluations = max_evaluations;
+             o.hull_rank = hull_rank;
              o.threads = threads;
              return std::make_unique<CandidatePipeline>(checker, o);
            }),
            "checker"_a, "edge"_a, "backoff"_a, "steps"_a = pyb::none(), "center"_a = pyb::none(),
            "radius"_a = pyb::none(), "mu"_a = 0.5, "edges"_a = 8, "contacts_per_link"_a = pyb::none(),
-           "max_evaluations"_a = -1, "threads"_a = 0, pyb::keep_alive<1, 2>())
+           "max_evaluations"_a = -1, "hull_rank"_a = 0, "threads"_a = 0, pyb::keep_alive<1, 2>())
       .def(
           "process",
           [](CandidatePipeline& p, const pyb::object& poses, const pyb::object& dofs, const pyb::object& samples,
@@ -503,7 +504,7 @@ void bind_planning(pyb::module_& m) {
       "plan_samples",
       [](const GraspPlanner& planner, const pyb::object& samples, int poses_per_sample, int chunk, double step, int top,
          int fine_tune, int fine_tune_iterations, std::uint64_t seed, double mu, int edges, int contacts_per_link,
-         int max_evaluations) {
+         int max_evaluations, int hull_rank) {
         const std::vector<Eigen::VectorXd> qs = samples_from(samples, static_cast<long>(planner.hand().dofs().size()));
         PlanOptions o;
         o.poses_per_sample = poses_per_sample;
@@ -517,6 +518,7 @@ void bind_planning(pyb::module_& m) {
         o.edges = edges;
         o.contacts_per_link = contacts_per_link;
         o.max_evaluations = max_evaluations;
+        o.hull_rank = hull_rank;
         PlanReport r;
         {
           pyb::gil_scoped_release release;
@@ -527,7 +529,7 @@ void bind_planning(pyb::module_& m) {
       "planner"_a, "samples"_a, "poses_per_sample"_a = PlanOptions().poses_per_sample, "chunk"_a = PlanOptions().chunk,
       "step"_a = 0.0, "top"_a = PlanOptions().top, "fine_tune"_a = PlanOptions().fine_tune,
       "fine_tune_iterations"_a = PlanOptions().fine_tune_iterations, "seed"_a = 0, "mu"_a = 0.5, "edges"_a = 8,
-      "contacts_per_link"_a = PlanOptions().contacts_per_link, "max_evaluations"_a = -1,
+      "contacts_per_link"_a = PlanOptions().contacts_per_link, "max_evaluations"_a = -1, "hull_rank"_a = -1,
       "The C++ planning call: align each sample (K, D), settle, evaluate, rank and fine-tune, `chunk` samples at a "
       "time. Returns (grasps: list of RankedGrasp, candidates: list of EvaluatedCandidate, counts, timings).");
 #undef PG_PLANNER_ARGS

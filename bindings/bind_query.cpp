@@ -2,6 +2,7 @@
 // (occluded_by, visible_from, combine_free).
 #include "bind.hpp"
 
+#include <pairgrasp/error.hpp>
 #include <pairgrasp/reachability.hpp>
 #include <pairgrasp/surface_query.hpp>
 

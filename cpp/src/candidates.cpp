@@ -5,6 +5,7 @@
 #include "thread_pool.hpp"
 
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
@@ -274,11 +275,41 @@ ChunkReport CandidatePipeline::process(const std::vector<Candidate>& candidates)
     if (static_cast<long>(todo.size()) > room) todo.resize(static_cast<std::size_t>(room));
   }
   report.settle_seconds = seconds_since(t0);
-  // 3. Evaluate.
+  // 3. Evaluate, the hull only where the bound says the candidate may reach the best.
   t0 = Clock::now();
+  EvaluateOptions eo = options_.evaluate;
+  const int per_link = eo.contacts_per_link;
+  if (options_.hull_rank > 0 && per_link > 1 && static_cast<int>(evaluated_.size()) >= options_.hull_rank) {
+    std::vector<double> eps;
+    for (const EvaluatedCandidate& c : evaluated_) eps.push_back(c.evaluation.quality.epsilon);
+    std::nth_element(eps.begin(), eps.begin() + (options_.hull_rank - 1), eps.end(), std::greater<double>());
+    eo.quality.min_epsilon = eps[static_cast<std::size_t>(options_.hull_rank - 1)];
+  }
   detail::parallel_for(todo.size(), options_.threads, [&](std::size_t i) {
     EvaluatedCandidate& c = settled[todo[i]];
-    c.evaluation = evaluate_grasp(checker_, c.start_pose, c.start_dofs, options_.evaluate);
+    c.evaluation = evaluate_grasp(checker_, c.start_pose, c.start_dofs, eo);
+    GraspQuality& q = c.evaluation.quality;
+    if (!q.epsilon_computed) {
+      // Below the best: half the contacts per link decide force closure (and give a lower bound
+      // of epsilon); where they do not close, every reduced contact does.
+      const Contacts& k = c.evaluation.contacts;
+      QualityOptions qo = eo.quality;
+      qo.min_epsilon = 0.0;
+      qo.open_volume = false;
+      auto quality_of = [&](int per) {
+        const std::vector<int> few = reduce_contacts(k.points, k.links, per);
+        Points pts(static_cast<Eigen::Index>(few.size()), 3), nrm(static_cast<Eigen::Index>(few.size()), 3);
+        for (std::size_t j = 0; j < few.size(); ++j) {
+          pts.row(static_cast<Eigen::Index>(j)) = k.points.row(few[j]);
+          nrm.row(static_cast<Eigen::Index>(j)) = k.normals.row(few[j]);
+        }
+        return grasp_quality(pts, nrm, reference_.center, reference_.radius, qo);
+      };
+      const double bound = q.epsilon_bound;
+      GraspQuality sub = quality_of(per_link / 2);
+      q = sub.force_closure ? std::move(sub) : quality_of(per_link);
+      q.epsilon_bound = bound;
+    }
     c.seconds = seconds_since(created_);
   });
   for (std::size_t k : todo) evaluated_.push_back(std::move(settled[k]));

@@ -22,6 +22,20 @@ void check_value(const char* name, double v, bool zero_ok) {
                                 ", got " + std::to_string(v));
 }
 
+// Every combination of one value per axis, the last axis varying fastest.
+std::vector<Eigen::VectorXd> cartesian(const std::vector<std::vector<double>>& axes) {
+  std::vector<Eigen::VectorXd> out;
+  std::vector<std::size_t> idx(axes.size(), 0);
+  for (;;) {
+    Eigen::VectorXd q(static_cast<Eigen::Index>(axes.size()));
+    for (std::size_t d = 0; d < axes.size(); ++d) q[static_cast<Eigen::Index>(d)] = axes[d][idx[d]];
+    out.push_back(q);
+    std::size_t d = axes.size();
+    while (d > 0 && ++idx[d - 1] == axes[d - 1].size()) idx[--d] = 0;
+    if (d == 0) return out;
+  }
+}
+
 // Every DOF at its lower limit, middle and upper limit (one value when the range is empty).
 std::vector<Eigen::VectorXd> corner_samples(const Eigen::VectorXd& lo, const Eigen::VectorXd& hi) {
   std::vector<std::vector<double>> axes;
@@ -31,16 +45,7 @@ std::vector<Eigen::VectorXd> corner_samples(const Eigen::VectorXd& lo, const Eig
     v.erase(std::unique(v.begin(), v.end()), v.end());
     axes.push_back(v);
   }
-  std::vector<Eigen::VectorXd> out;
-  std::vector<std::size_t> idx(axes.size(), 0);
-  for (;;) {
-    Eigen::VectorXd q(lo.size());
-    for (std::size_t d = 0; d < axes.size(); ++d) q[static_cast<Eigen::Index>(d)] = axes[d][idx[d]];
-    out.push_back(q);
-    std::size_t d = axes.size();
-    while (d > 0 && ++idx[d - 1] == axes[d - 1].size()) idx[--d] = 0;
-    if (d == 0) return out;
-  }
+  return cartesian(axes);
 }
 
 double largest_span(const Points& p) {
@@ -119,17 +124,7 @@ std::vector<std::vector<double>> dof_axes(const Eigen::VectorXd& lower, const Ei
 
 std::vector<Eigen::VectorXd> dof_grid(const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
                                       const Eigen::VectorXd& steps) {
-  const std::vector<std::vector<double>> axes = dof_axes(lower, upper, steps);
-  std::vector<Eigen::VectorXd> out;
-  std::vector<std::size_t> idx(axes.size(), 0);
-  for (;;) {
-    Eigen::VectorXd q(lower.size());
-    for (std::size_t d = 0; d < axes.size(); ++d) q[static_cast<Eigen::Index>(d)] = axes[d][idx[d]];
-    out.push_back(q);
-    std::size_t d = axes.size();
-    while (d > 0 && ++idx[d - 1] == axes[d - 1].size()) idx[--d] = 0;
-    if (d == 0) return out;
-  }
+  return cartesian(dof_axes(lower, upper, steps));
 }
 
 PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& free, const PlannerOptions& o) {
@@ -290,6 +285,7 @@ PlanReport plan_samples(const GraspPlanner& planner, const std::vector<Eigen::Ve
   po.evaluate.reference = planner.reference();
   po.evaluate.contacts_per_link = o.contacts_per_link;
   po.max_evaluations = o.max_evaluations;
+  po.hull_rank = o.hull_rank >= 0 ? o.hull_rank : std::max(o.top, o.fine_tune);
   po.threads = planner.options().threads;
   CandidatePipeline pipe(planner.checker(), po);
 

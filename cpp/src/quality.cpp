@@ -322,6 +322,11 @@ GraspQuality grasp_quality(const Points& points, const Points& normals, const Ei
   }
   q.epsilon_bound = support_bound(distinct, svd.matrixV());
   const double boundary_tol = kRtol * w.rowwise().norm().maxCoeff();
+  if (!options.open_volume && origin_separated(distinct, boundary_tol)) {
+    q.reason = "the origin is outside the wrench hull";
+    q.volume_exact = false;
+    return q;
+  }
   if (options.min_epsilon > 0.0 && q.epsilon_bound < options.min_epsilon) {
     q.epsilon_computed = false;
     q.volume_exact = false;
@@ -329,11 +334,6 @@ GraspQuality grasp_quality(const Points& points, const Points& normals, const Ei
     std::snprintf(text, sizeof text, "epsilon upper bound %.6g is below min_epsilon %.6g: hull skipped",
                   q.epsilon_bound, options.min_epsilon);
     q.reason = text;
-    return q;
-  }
-  if (!options.open_volume && origin_separated(distinct, boundary_tol)) {
-    q.reason = "the origin is outside the wrench hull";
-    q.volume_exact = false;
     return q;
   }
   if (w.rows() <= options.max_hull_wrenches) {

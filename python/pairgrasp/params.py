@@ -95,7 +95,7 @@ class PlanParams:
     time_limit: Optional[float] = None
     fine_tune: int = 5
     fine_tune_iterations: int = 20
-    contacts_per_link: Optional[int] = 6
+    contacts_per_link: Optional[int] = 4
     mu: float = 0.5
     edges: int = 8
     top: int = 10

@@ -248,7 +248,7 @@ def _drawn(img):
     canvas = img[200:, :640].reshape(-1, 3)
     r, g, b = canvas.T
     hand = int(((b > r + 40) & (b > g + 20)).sum())
-    occluded = int(((r > b + 60) & (r > 150) & (g > 80)).sum())
+    occluded = int(((r > b + 60) & (r > 100) & (g > 40) & (r > g + 40) & (g > b + 20)).sum())  # lit or shaded orange
     return dict(std=float(canvas.std()), colours=len(np.unique(canvas, axis=0)), hand=hand, occluded=occluded)
 
 

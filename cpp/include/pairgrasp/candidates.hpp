@@ -16,7 +16,8 @@
 ///    a DOF step) are evaluated once, the one of the best alignment quality; PipelineOptions::
 ///    max_evaluations bounds the evaluations over all chunks.
 /// 3. **evaluate**: close onto contact, check, find the contacts on free faces, reduce them per link
-///    and compute epsilon (evaluate_grasp()).
+///    and compute epsilon (evaluate_grasp()), the hull only for candidates that can reach the best
+///    (PipelineOptions::hull_rank).
 ///
 /// finish() then ranks the evaluated candidates (unpruned, force closure, epsilon, alignment
 /// quality, votes), fine-tunes the best (fine_tune() with seed + rank), drops near-duplicates and
@@ -45,6 +46,15 @@ struct PipelineOptions {
   /// Scoring of candidates (close is always on; contacts_per_link 0: every contact).
   EvaluateOptions evaluate;
   int max_evaluations = -1;  ///< candidates evaluated at most over all chunks (< 0: no bound)
+  /// Bound first: only candidates that can reach the `hull_rank` best epsilons pay for the hull
+  /// of their (reduced) contacts. Before a chunk, T is the hull_rank-th best epsilon of the chunks
+  /// before it; a candidate whose hull-free upper bound (epsilon_upper_bound()) is below T cannot
+  /// reach them, and gets the hull of half as many contacts per link instead, whose epsilon is a
+  /// lower bound of its own and proves force closure when positive (the full hull decides when it
+  /// does not). So the hull_rank best candidates and the force-closure ones are those of scoring
+  /// every candidate fully; the others' epsilon may be a lower bound. 0: every candidate fully.
+  /// Needs contacts_per_link > 1.
+  int hull_rank = 0;
   int threads = 0;           ///< threads of the pool used (0: every core)
 };
 

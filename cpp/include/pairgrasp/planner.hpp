@@ -134,8 +134,11 @@ struct PlanOptions {
   std::uint64_t seed = 0;    ///< the grasp of rank k is fine-tuned with seed + k
   double mu = 0.5;           ///< friction coefficient
   int edges = 8;             ///< friction-pyramid edges
-  int contacts_per_link = 6; ///< contacts scored per link while searching (0: every contact)
+  int contacts_per_link = 4; ///< contacts scored per link while searching (0: every contact)
   int max_evaluations = -1;  ///< candidates evaluated at most (< 0: all)
+  /// PipelineOptions::hull_rank: only candidates that can reach this many best epsilons pay for
+  /// the full hull (< 0: max(top, fine_tune); 0: every candidate).
+  int hull_rank = -1;
 };
 
 /// What plan_samples() returns.

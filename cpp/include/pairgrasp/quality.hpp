@@ -52,7 +52,8 @@ struct QualityOptions {
   /// itself, so a search that ranks by epsilon skips it.
   bool volume = true;
   /// A caller that only wants grasps whose epsilon reaches this value (dimensionless, >= 0) skips
-  /// the hull of any grasp whose epsilon_upper_bound() is below it: the result then has
+  /// the hull of any grasp whose epsilon_upper_bound() is below it (and, with open_volume false,
+  /// that a separating hyperplane does not already prove not force-closure): the result then has
   /// epsilon_computed false, epsilon 0, force_closure false, volume 0 and volume_exact false.
   /// 0: every full-rank grasp gets its hull.
   double min_epsilon = 0.0;
