@@ -175,6 +175,9 @@ void bind_planning(pyb::module_& m) {
       .def_property_readonly("volume", [](const GraspEvaluation& e) { return e.quality.volume; },
                              "6-D volume of the grasp wrench hull (0 when pruned).")
       .def_property_readonly("force_closure", [](const GraspEvaluation& e) { return e.quality.force_closure; })
+      .def_property_readonly("epsilon_computed", [](const GraspEvaluation& e) { return e.quality.epsilon_computed; },
+                             "False when epsilon is a lower bound because the grasp provably cannot reach the "
+                             "pipeline's best (CandidatePipeline hull_rank).")
       .def_property_readonly("quality_reason", [](const GraspEvaluation& e) { return e.quality.reason; },
                              "Why it is not force-closure ('' when it is; 'pruned: ...' when pruned).")
       .def_property_readonly("closing_reasons", [](const GraspEvaluation& e) {

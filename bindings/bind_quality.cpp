@@ -83,13 +83,14 @@ void bind_quality(pyb::module_& m) {
       "_grasp_quality",
       [](const pyb::object& points, const pyb::object& normals, const pyb::object& center, double radius, double mu,
          int edges, bool soft, std::optional<double> torsion, int soft_rings, int max_hull_wrenches,
-         bool open_volume, bool volume) {
+         bool open_volume, bool volume, double min_epsilon) {
         const Grasp g = grasp_from(points, normals, center);
         QualityOptions o;
         o.contact = model_from(mu, edges, soft, torsion, soft_rings);
         o.max_hull_wrenches = max_hull_wrenches;
         o.open_volume = open_volume;
         o.volume = volume;
+        o.min_epsilon = min_epsilon;
         GraspQuality q;
         {
           pyb::gil_scoped_release release;
@@ -99,7 +100,7 @@ void bind_quality(pyb::module_& m) {
                                q.volume_exact);
       },
       "points"_a, "normals"_a, "center"_a, "radius"_a, "mu"_a, "edges"_a, "soft"_a, "torsion"_a, "soft_rings"_a,
-      "max_hull_wrenches"_a, "open_volume"_a, "volume"_a = true,
+      "max_hull_wrenches"_a, "open_volume"_a, "volume"_a = true, "min_epsilon"_a = 0.0,
       "(epsilon, volume, force_closure, n_contacts, n_wrenches, rank, reason, volume_exact) of a grasp, computed "
       "in C++ with qhull (see pairgrasp.grasp_quality).");
 

@@ -289,25 +289,22 @@ ChunkReport CandidatePipeline::process(const std::vector<Candidate>& candidates)
     EvaluatedCandidate& c = settled[todo[i]];
     c.evaluation = evaluate_grasp(checker_, c.start_pose, c.start_dofs, eo);
     GraspQuality& q = c.evaluation.quality;
-    if (!q.epsilon_computed) {
-      // Below the best: half the contacts per link decide force closure (and give a lower bound
-      // of epsilon); where they do not close, every reduced contact does.
+    if (!q.epsilon_computed && !q.force_closure) {
+      // Below the best, and the few contacts of the bound did not prove force closure: the full
+      // hull of the reduced contacts decides.
+      EvaluateOptions full = eo;
+      full.quality.min_epsilon = 0.0;
       const Contacts& k = c.evaluation.contacts;
-      QualityOptions qo = eo.quality;
-      qo.min_epsilon = 0.0;
+      QualityOptions qo = full.quality;
       qo.open_volume = false;
-      auto quality_of = [&](int per) {
-        const std::vector<int> few = reduce_contacts(k.points, k.links, per);
-        Points pts(static_cast<Eigen::Index>(few.size()), 3), nrm(static_cast<Eigen::Index>(few.size()), 3);
-        for (std::size_t j = 0; j < few.size(); ++j) {
-          pts.row(static_cast<Eigen::Index>(j)) = k.points.row(few[j]);
-          nrm.row(static_cast<Eigen::Index>(j)) = k.normals.row(few[j]);
-        }
-        return grasp_quality(pts, nrm, reference_.center, reference_.radius, qo);
-      };
+      const std::vector<int> keep = reduce_contacts(k.points, k.links, per_link);
+      Points pts(static_cast<Eigen::Index>(keep.size()), 3), nrm(static_cast<Eigen::Index>(keep.size()), 3);
+      for (std::size_t j = 0; j < keep.size(); ++j) {
+        pts.row(static_cast<Eigen::Index>(j)) = k.points.row(keep[j]);
+        nrm.row(static_cast<Eigen::Index>(j)) = k.normals.row(keep[j]);
+      }
       const double bound = q.epsilon_bound;
-      GraspQuality sub = quality_of(per_link / 2);
-      q = sub.force_closure ? std::move(sub) : quality_of(per_link);
+      q = grasp_quality(pts, nrm, reference_.center, reference_.radius, qo);
       q.epsilon_bound = bound;
     }
     c.seconds = seconds_since(created_);

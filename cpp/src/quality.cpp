@@ -25,6 +25,8 @@ namespace {
 // than kRtol times the largest wrench norm to a facet counts as on the boundary. Since epsilon never
 // exceeds the smallest singular value, both tests declare the same near-degenerate grasps non-closure.
 constexpr double kRtol = 1e-9;
+// Contacts of the small hull whose facets bound epsilon before a min_epsilon skip.
+constexpr Eigen::Index kBoundContacts = 6;
 // qhull options: SciPy's ConvexHull defaults ("Qt", plus "Qx" above 4-D), then joggled input.
 constexpr const char* kHullOptions = "Qt Qx";
 constexpr const char* kJoggleOptions = "QJ Qt";
@@ -327,12 +329,41 @@ GraspQuality grasp_quality(const Points& points, const Points& normals, const Ei
     q.volume_exact = false;
     return q;
   }
-  if (options.min_epsilon > 0.0 && q.epsilon_bound < options.min_epsilon) {
+  // Below min_epsilon the hull is not wanted. The hull-free bound decides first; where it does not,
+  // a hull of a few contacts spread over the grasp does: each of its facets' normals a bounds
+  // epsilon by max_w a.w over every wrench (a ball about the origin in the full hull stays on the
+  // inner side of that support plane), a bound usually far tighter than the 24 fixed directions'.
+  double bound = q.epsilon_bound, small_epsilon = 0.0;
+  if (options.min_epsilon > 0.0 && bound >= options.min_epsilon && kept > kBoundContacts) {
+    std::vector<Eigen::Index> few{0};
+    Eigen::VectorXd dist = (coords.rowwise() - coords.row(0)).rowwise().norm();
+    while (static_cast<Eigen::Index>(few.size()) < kBoundContacts) {
+      Eigen::Index k = 0;
+      dist.maxCoeff(&k);
+      few.push_back(k);
+      dist = dist.cwiseMin((coords.rowwise() - coords.row(k)).rowwise().norm());
+    }
+    Matrix sub(static_cast<Eigen::Index>(few.size()) * per, 6);
+    for (std::size_t k = 0; k < few.size(); ++k)
+      sub.middleRows(static_cast<Eigen::Index>(k) * per, per) = w.middleRows(few[k] * per, per);
+    const HullQuality h = hull_quality(sub, tol, boundary_tol, false);
+    small_epsilon = h.epsilon;  // > 0: the few contacts already close, and their epsilon is a lower bound
+    for (Eigen::Index f = 0; f < h.planes.rows(); ++f)
+      bound = std::min(bound, (w * h.planes.row(f).head<6>().transpose()).maxCoeff());
+    bound = std::max(bound, 0.0);
+  }
+  if (options.min_epsilon > 0.0 && bound < options.min_epsilon) {
     q.epsilon_computed = false;
     q.volume_exact = false;
+    q.epsilon_bound = bound;
+    if (small_epsilon > 0.0) {  // force closure proven by the few contacts
+      q.epsilon = small_epsilon;
+      q.force_closure = true;
+      return q;
+    }
     char text[160];
     std::snprintf(text, sizeof text, "epsilon upper bound %.6g is below min_epsilon %.6g: hull skipped",
-                  q.epsilon_bound, options.min_epsilon);
+                  bound, options.min_epsilon);
     q.reason = text;
     return q;
   }

@@ -225,6 +225,45 @@ TEST(Quality, MinEpsilonSkipsOnlyGraspsThatCannotReachIt) {
   EXPECT_GE(checked, 5);
 }
 
+// With more than 6 contacts, the hull of 6 of them bounds epsilon through its facets before a
+// min_epsilon skip: every skip is of a grasp whose full epsilon is below the threshold, a skipped
+// grasp reported force-closure is force-closure with at least the reported epsilon, and that
+// bound skips grasps the hull-free one cannot.
+TEST(Quality, MinEpsilonFacetBoundIsSound) {
+  std::mt19937 rng(23);
+  int skipped_by_facets = 0, proven = 0, cases = 0;
+  for (int trial = 0; trial < 24; ++trial) {
+    const Contacts c = sphere_grasp(rng, 8 + trial % 4, 0.04, 0.3);
+    const pg::GraspQuality full = pg::grasp_quality(c.points, c.normals, Eigen::Vector3d::Zero(), 0.04, options(0.6, 8));
+    if (full.rank < 6) continue;
+    for (double f : {0.3, 0.6, 0.9}) {
+      pg::QualityOptions o = options(0.6, 8);
+      o.min_epsilon = f * full.epsilon_bound;
+      const pg::GraspQuality q = pg::grasp_quality(c.points, c.normals, Eigen::Vector3d::Zero(), 0.04, o);
+      ++cases;
+      if (q.epsilon_computed) {
+        EXPECT_EQ(q.epsilon, full.epsilon);
+        EXPECT_EQ(q.force_closure, full.force_closure);
+        continue;
+      }
+      EXPECT_LT(full.epsilon, o.min_epsilon) << trial;  // never skips a grasp that reaches it
+      EXPECT_GE(q.epsilon_bound, full.epsilon * (1 - 1e-12)) << trial;
+      skipped_by_facets += q.epsilon_bound < full.epsilon_bound;
+      if (q.force_closure) {
+        ++proven;
+        EXPECT_TRUE(full.force_closure) << trial;
+        EXPECT_LE(q.epsilon, full.epsilon * (1 + 1e-9)) << trial;
+        EXPECT_GT(q.epsilon, 0.0);
+      } else {
+        EXPECT_EQ(q.epsilon, 0.0);
+      }
+    }
+  }
+  EXPECT_GT(cases, 40);
+  EXPECT_GT(skipped_by_facets, 5);
+  EXPECT_GT(proven, 0);
+}
+
 TEST(Quality, ActiveSetEpsilonEqualsTheFullHull) {
   std::mt19937 rng(7);
   for (int trial = 0; trial < 6; ++trial) {

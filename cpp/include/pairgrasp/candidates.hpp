@@ -48,12 +48,12 @@ struct PipelineOptions {
   int max_evaluations = -1;  ///< candidates evaluated at most over all chunks (< 0: no bound)
   /// Bound first: only candidates that can reach the `hull_rank` best epsilons pay for the hull
   /// of their (reduced) contacts. Before a chunk, T is the hull_rank-th best epsilon of the chunks
-  /// before it; a candidate whose hull-free upper bound (epsilon_upper_bound()) is below T cannot
-  /// reach them, and gets the hull of half as many contacts per link instead, whose epsilon is a
-  /// lower bound of its own and proves force closure when positive (the full hull decides when it
-  /// does not). So the hull_rank best candidates and the force-closure ones are those of scoring
-  /// every candidate fully; the others' epsilon may be a lower bound. 0: every candidate fully.
-  /// Needs contacts_per_link > 1.
+  /// before it; a candidate whose epsilon provably lies below T (QualityOptions::min_epsilon: the
+  /// hull-free bound, then the facets of a hull of 6 of its contacts) cannot reach them: when those
+  /// 6 contacts close, it is force-closure with their epsilon (a lower bound of its own), else the
+  /// full hull decides. So the hull_rank best candidates and the force-closure ones are those of
+  /// scoring every candidate fully; the others' epsilon may be a lower bound. 0: every candidate
+  /// fully.
   int hull_rank = 0;
   int threads = 0;           ///< threads of the pool used (0: every core)
 };

@@ -52,9 +52,14 @@ struct QualityOptions {
   /// itself, so a search that ranks by epsilon skips it.
   bool volume = true;
   /// A caller that only wants grasps whose epsilon reaches this value (dimensionless, >= 0) skips
-  /// the hull of any grasp whose epsilon_upper_bound() is below it (and, with open_volume false,
-  /// that a separating hyperplane does not already prove not force-closure): the result then has
-  /// epsilon_computed false, epsilon 0, force_closure false, volume 0 and volume_exact false.
+  /// the hull of any grasp whose epsilon provably lies below it (and, with open_volume false, that
+  /// a separating hyperplane does not already prove not force-closure): first by
+  /// epsilon_upper_bound(), then, where that does not decide and there are more than 6 contacts,
+  /// by the hull of 6 contacts spread over the grasp, each of whose facet normals a bounds epsilon
+  /// by max_w a.w over every wrench. The result then has epsilon_computed false, volume 0,
+  /// volume_exact false and the bound that decided in epsilon_bound; when the 6 contacts' hull
+  /// holds the origin, force_closure true (their wrenches are some of the grasp's) and epsilon the
+  /// 6 contacts' (a lower bound), else force_closure false (unknown: not computed) and epsilon 0.
   /// 0: every full-rank grasp gets its hull.
   double min_epsilon = 0.0;
 };
@@ -74,7 +79,8 @@ struct GraspQuality {
   /// `volume` is the hull volume of every wrench; false when epsilon came from the active set
   /// (the volume of a subset's hull, a lower bound) or no hull was built.
   bool volume_exact = true;
-  /// The hull-free upper bound of epsilon_upper_bound() (0 when rank < 6).
+  /// The hull-free upper bound of epsilon_upper_bound() (0 when rank < 6), or the tighter bound
+  /// that skipped the hull (see QualityOptions::min_epsilon).
   double epsilon_bound = 0.0;
   /// false when the hull was skipped because epsilon_bound < QualityOptions::min_epsilon.
   bool epsilon_computed = true;
