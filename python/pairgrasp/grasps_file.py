@@ -234,3 +234,54 @@ def write_grasps(path, doc: dict) -> None:
         if os.path.exists(tmp):
             os.remove(tmp)
         raise
+
+
+def _resolve(path, base, where) -> str:
+    """A file recorded in a grasps.json's ``inputs``: as written, else relative to the file's folder."""
+    if not isinstance(path, str) or path == "<mesh>":
+        raise FileError(f"{where}: the plan did not record a file ({path!r}); pass it explicitly")
+    for cand in (path, os.path.join(base, path)):
+        if os.path.isfile(cand):
+            return cand
+    raise FileError(f"{where}: no such file: {path}")
+
+
+@dataclass(frozen=True)
+class _Planned:
+    """A grasps.json read back with the hand and target it was planned for."""
+
+    grasps: GraspsFile
+    hand: object
+    target: object
+    scale: float
+    base: str
+
+
+def _load_planned(path, hand=None, target=None) -> _Planned:
+    """Reads a grasps.json with its hand and target (given, or the files its ``inputs`` record):
+    the grasps are checked against the hand, the target against the recorded face count.
+    Raises FileError for a bad file or a missing input, ValueError for another hand or target."""
+    from . import _core
+
+    path = os.fspath(path)
+    gf = load_grasps(path)
+    base = os.path.dirname(os.path.abspath(path))
+    inputs = gf.inputs
+    if hand is None:
+        hand = _core.load_hand(_resolve(inputs.get("hand_spec"), base, f"{path}: inputs.hand_spec"))
+    elif not isinstance(hand, _core.Hand):
+        hand = _core.load_hand(os.fspath(hand))
+    planned_for = inputs.get("hand")
+    if planned_for is not None and planned_for != hand.name:
+        raise ValueError(f"{path}: the grasps were planned for hand '{planned_for}', not '{hand.name}'")
+    gf = parse_grasps(gf.document, path, hand)  # DOF counts and limits against this hand
+    scale = float(inputs.get("scale", 1.0))
+    if target is None:
+        target = _core.load_mesh(_resolve(inputs.get("target"), base, f"{path}: inputs.target"), scale=scale)
+    elif not isinstance(target, _core.Mesh):
+        target = _core.load_mesh(os.fspath(target), scale=scale)
+    if len(target.faces) != inputs.get("target_faces", len(target.faces)):
+        raise ValueError(f"{path}: the grasps were planned on a target of {inputs['target_faces']} faces, "
+                         f"this one has {len(target.faces)}")
+    return _Planned(grasps=gf, hand=hand, target=target, scale=scale, base=base)
+

@@ -649,15 +649,6 @@ class SimReport:
     picture: Optional[str]
 
 
-def _resolve(path, base, where) -> str:
-    if not isinstance(path, str) or path == "<mesh>":
-        raise _core.FileError(f"{where}: the plan did not record a file ({path!r}); pass it explicitly")
-    for cand in (path, os.path.join(base, path)):
-        if os.path.isfile(cand):
-            return cand
-    raise _core.FileError(f"{where}: no such file: {path}")
-
-
 def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, params: Optional[SimParams] = None,
                     picture: bool = True, progress=None, **overrides) -> SimReport:
     """Simulates the first ``top`` grasps of a grasps.json file and writes each outcome into it, as
@@ -674,31 +665,15 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
         ValueError: ``top`` < 1, a hand other than the one the grasps were planned for, bad parameters.
         ImportError: MuJoCo is not installed.
     """
-    from .grasps_file import load_grasps, parse_grasps, write_grasps
+    from .grasps_file import _load_planned, _resolve, write_grasps
 
     import_mujoco()
     path = os.fspath(path)
     if top is not None and (isinstance(top, bool) or not isinstance(top, int) or top < 1):
         raise ValueError(f"top: expected an integer >= 1, got {top!r}")
-    gf = load_grasps(path)
-    base = os.path.dirname(os.path.abspath(path))
+    planned = _load_planned(path, hand, target)
+    gf, hand, target, scale, base = planned.grasps, planned.hand, planned.target, planned.scale, planned.base
     inputs = gf.inputs
-    if hand is None:
-        hand = _core.load_hand(_resolve(inputs.get("hand_spec"), base, f"{path}: inputs.hand_spec"))
-    elif not isinstance(hand, _core.Hand):
-        hand = _core.load_hand(os.fspath(hand))
-    planned_for = inputs.get("hand")
-    if planned_for is not None and planned_for != hand.name:
-        raise ValueError(f"{path}: the grasps were planned for hand '{planned_for}', not '{hand.name}'")
-    gf = parse_grasps(gf.document, path, hand)          # DOF counts and limits against this hand
-    scale = float(inputs.get("scale", 1.0))
-    if target is None:
-        target = _core.load_mesh(_resolve(inputs.get("target"), base, f"{path}: inputs.target"), scale=scale)
-    elif not isinstance(target, _core.Mesh):
-        target = _core.load_mesh(os.fspath(target), scale=scale)
-    if len(target.faces) != inputs.get("target_faces", len(target.faces)):
-        raise ValueError(f"{path}: the grasps were planned on a target of {inputs['target_faces']} faces, "
-                         f"this one has {len(target.faces)}")
     others = []
     for key in ("obstacles", "occluders"):
         for k, o in enumerate(inputs.get(key, []) or []):

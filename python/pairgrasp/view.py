@@ -33,7 +33,7 @@ import numpy as np
 
 from . import _core
 from .render import _CONTACT, _FREE, _HAND, _OCCLUDED
-from .sim import _resolve
+from .grasps_file import _resolve
 
 __all__ = ["Part", "SceneGrasp", "Scene", "load_scene", "to_trimesh", "export_glb", "serve"]
 
@@ -199,29 +199,14 @@ def load_scene(path, hand=None, target=None) -> Scene:
         ValueError: a hand other than the one the grasps were planned for, or a target with another
             number of faces.
     """
-    from .grasps_file import load_grasps, parse_grasps
+    from .grasps_file import _load_planned
 
     path = os.fspath(path)
-    gf = load_grasps(path)
-    base = os.path.dirname(os.path.abspath(path))
+    given = target
+    planned = _load_planned(path, hand, target)
+    gf, hand, target, scale, base = planned.grasps, planned.hand, planned.target, planned.scale, planned.base
     inputs = gf.inputs
-    if hand is None:
-        hand = _core.load_hand(_resolve(inputs.get("hand_spec"), base, f"{path}: inputs.hand_spec"))
-    elif not isinstance(hand, _core.Hand):
-        hand = _core.load_hand(os.fspath(hand))
-    planned_for = inputs.get("hand")
-    if planned_for is not None and planned_for != hand.name:
-        raise ValueError(f"{path}: the grasps were planned for hand '{planned_for}', not '{hand.name}'")
-    gf = parse_grasps(gf.document, path, hand)
-    scale = float(inputs.get("scale", 1.0))
-    target_name = target if target is not None else inputs.get("target")
-    if target is None:
-        target = _core.load_mesh(_resolve(inputs.get("target"), base, f"{path}: inputs.target"), scale=scale)
-    elif not isinstance(target, _core.Mesh):
-        target = _core.load_mesh(os.fspath(target), scale=scale)
-    if len(target.faces) != inputs.get("target_faces", len(target.faces)):
-        raise ValueError(f"{path}: the grasps were planned on a target of {inputs['target_faces']} faces, "
-                         f"this one has {len(target.faces)}")
+    target_name = given if given is not None else inputs.get("target")
     notes: List[str] = []
     free, occluders = _free_mask(inputs, target, base, path, scale, notes)
 
