@@ -103,13 +103,12 @@ TorqueReference reference_of(const GraspChecker& checker, const EvaluateOptions&
   return options.reference ? *options.reference : torque_reference(checker.target());
 }
 
-void check_options(const GraspChecker& checker, const EvaluateOptions& options, const TorqueReference& ref) {
+void check_options(const EvaluateOptions& options, const TorqueReference& ref) {
   if (options.contacts_per_link < 0)
     throw std::invalid_argument("contacts_per_link: expected an integer >= 1 (or 0 for every contact), got " +
                                 std::to_string(options.contacts_per_link));
   // The quality options are checked once, before any closing (grasp_quality throws for bad ones).
   grasp_quality(Points(0, 3), Points(0, 3), ref.center, ref.radius, options.quality);
-  (void)checker;
 }
 
 // Uniform double in [0, 1) from 53 random bits.
@@ -139,7 +138,7 @@ GraspEvaluation evaluate_grasp(const GraspChecker& checker, const Pose& wrist, c
   check_rigid(wrist, "wrist_pose");
   checker.hand().link_poses(dofs);  // "dofs: ..." for a bad vector
   const TorqueReference ref = reference_of(checker, options);
-  check_options(checker, options, ref);
+  check_options(options, ref);
   return evaluate_checked(checker, wrist, dofs, options, ref);
 }
 
@@ -170,7 +169,7 @@ FineTuneResult fine_tune(const GraspChecker& checker, const Pose& wrist, const E
   eo.close = true;
   const TorqueReference ref = reference_of(checker, eo);
   eo.reference = ref;
-  check_options(checker, eo, ref);
+  check_options(eo, ref);
 
   FineTuneResult out;
   out.start = evaluate_checked(checker, wrist, dofs, eo, ref);
