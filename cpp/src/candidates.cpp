@@ -212,7 +212,10 @@ CandidatePipeline::CandidatePipeline(const GraspChecker& checker, const Pipeline
   options_.evaluate.close = true;
   // The search ranks by epsilon: the hull volume (several times the cost of the hull in 6-D) is
   // left to the returned grasps, which finish() scores again with every contact.
-  if (options_.evaluate.contacts_per_link > 0) options_.evaluate.quality.volume = false;
+  if (options_.evaluate.contacts_per_link > 0) {
+    options_.evaluate.quality.volume = false;
+    options_.evaluate.quality.joggle = true;
+  }
   reference_ = options_.evaluate.reference ? *options_.evaluate.reference : torque_reference(checker.target());
   options_.evaluate.reference = reference_;
   grasp_quality(Points(0, 3), Points(0, 3), reference_.center, reference_.radius, options_.evaluate.quality);
@@ -275,44 +278,70 @@ ChunkReport CandidatePipeline::process(const std::vector<Candidate>& candidates)
     if (static_cast<long>(todo.size()) > room) todo.resize(static_cast<std::size_t>(room));
   }
   report.settle_seconds = seconds_since(t0);
-  // 3. Evaluate, the hull only where the bound says the candidate may reach the best.
+  // 3. Evaluate: close, contacts and the hull-free bound of every candidate; then the hulls, best
+  // bound first, in rounds whose sizes do not depend on the threads, each round with the threshold
+  // T (the hull_rank-th best epsilon so far) the rounds before it raised.
   t0 = Clock::now();
-  EvaluateOptions eo = options_.evaluate;
-  const int per_link = eo.contacts_per_link;
-  if (options_.hull_rank > 0 && per_link > 1 && static_cast<int>(evaluated_.size()) >= options_.hull_rank) {
-    std::vector<double> eps;
-    for (const EvaluatedCandidate& c : evaluated_) eps.push_back(c.evaluation.quality.epsilon);
-    std::nth_element(eps.begin(), eps.begin() + (options_.hull_rank - 1), eps.end(), std::greater<double>());
-    eo.quality.min_epsilon = eps[static_cast<std::size_t>(options_.hull_rank - 1)];
-  }
+  const int per_link = options_.evaluate.contacts_per_link;
+  const bool ranked = options_.hull_rank > 0 && per_link > 1;
+  EvaluateOptions first = options_.evaluate;
+  first.score = !ranked;
   detail::parallel_for(todo.size(), options_.threads, [&](std::size_t i) {
     EvaluatedCandidate& c = settled[todo[i]];
-    c.evaluation = evaluate_grasp(checker_, c.start_pose, c.start_dofs, eo);
-    GraspQuality& q = c.evaluation.quality;
-    if (!q.epsilon_computed && !q.force_closure) {
-      // Below the best, and the few contacts of the bound did not prove force closure: the full
-      // hull of the reduced contacts decides.
-      EvaluateOptions full = eo;
-      full.quality.min_epsilon = 0.0;
-      const Contacts& k = c.evaluation.contacts;
-      QualityOptions qo = full.quality;
-      qo.open_volume = false;
-      const std::vector<int> keep = reduce_contacts(k.points, k.links, per_link);
-      Points pts(static_cast<Eigen::Index>(keep.size()), 3), nrm(static_cast<Eigen::Index>(keep.size()), 3);
-      for (std::size_t j = 0; j < keep.size(); ++j) {
-        pts.row(static_cast<Eigen::Index>(j)) = k.points.row(keep[j]);
-        nrm.row(static_cast<Eigen::Index>(j)) = k.normals.row(keep[j]);
-      }
-      const double bound = q.epsilon_bound;
-      q = grasp_quality(pts, nrm, reference_.center, reference_.radius, qo);
-      q.epsilon_bound = bound;
-    }
+    c.evaluation = evaluate_grasp(checker_, c.start_pose, c.start_dofs, first);
     c.seconds = seconds_since(created_);
   });
+  if (ranked) {
+    std::vector<double> eps;  // the epsilons known so far (exact, or lower bounds)
+    for (const EvaluatedCandidate& c : evaluated_) eps.push_back(c.evaluation.quality.epsilon);
+    std::vector<std::size_t> pending;
+    for (std::size_t k : todo) {
+      const GraspQuality& q = settled[k].evaluation.quality;
+      if (settled[k].evaluation.pruned) {
+        eps.push_back(q.epsilon);
+      } else {
+        pending.push_back(k);
+      }
+    }
+    std::stable_sort(pending.begin(), pending.end(), [&](std::size_t a, std::size_t b) {
+      return settled[a].evaluation.quality.epsilon_bound > settled[b].evaluation.quality.epsilon_bound;
+    });
+    const auto K = static_cast<std::size_t>(options_.hull_rank);
+    std::size_t next = 0, round = K;
+    while (next < pending.size()) {
+      double threshold = 0.0;
+      if (eps.size() >= K) {
+        std::nth_element(eps.begin(), eps.begin() + static_cast<std::ptrdiff_t>(K - 1), eps.end(), std::greater<double>());
+        threshold = eps[K - 1];
+      }
+      const std::size_t end = std::min(pending.size(), next + round);
+      detail::parallel_for(end - next, options_.threads, [&](std::size_t i) {
+        EvaluatedCandidate& c = settled[pending[next + i]];
+        c.evaluation.quality = score_reduced(c.evaluation.contacts, threshold);
+        c.seconds = seconds_since(created_);
+      });
+      for (std::size_t i = next; i < end; ++i) eps.push_back(settled[pending[i]].evaluation.quality.epsilon);
+      next = end;
+      round *= 2;
+    }
+  }
   for (std::size_t k : todo) evaluated_.push_back(std::move(settled[k]));
   report.evaluated = static_cast<int>(todo.size());
   report.evaluate_seconds = seconds_since(t0);
   return report;
+}
+
+GraspQuality CandidatePipeline::score_reduced(const Contacts& k, double threshold) const {
+  QualityOptions qo = options_.evaluate.quality;
+  qo.open_volume = false;
+  qo.min_epsilon = threshold;
+  const std::vector<int> keep = reduce_contacts(k.points, k.links, options_.evaluate.contacts_per_link);
+  Points pts(static_cast<Eigen::Index>(keep.size()), 3), nrm(static_cast<Eigen::Index>(keep.size()), 3);
+  for (std::size_t j = 0; j < keep.size(); ++j) {
+    pts.row(static_cast<Eigen::Index>(j)) = k.points.row(keep[j]);
+    nrm.row(static_cast<Eigen::Index>(j)) = k.normals.row(keep[j]);
+  }
+  return grasp_quality(pts, nrm, reference_.center, reference_.radius, qo);
 }
 
 std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options) const {
@@ -379,6 +408,7 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options)
   QualityOptions full = options_.evaluate.quality;
   full.open_volume = true;
   full.volume = true;
+  full.joggle = false;
   detail::parallel_for(chosen.size(), options_.threads, [&](std::size_t i) {
     const GraspEvaluation& e = chosen[i].evaluation;
     chosen[i].quality = options_.evaluate.contacts_per_link > 0 && e.contacts.points.rows() > 0

@@ -87,14 +87,22 @@ GraspEvaluation evaluate_checked(const GraspChecker& checker, const Pose& wrist,
     return e;
   }
   QualityOptions q = options.quality;
-  const bool reduce = options.contacts_per_link > 0 && e.contacts.points.rows() > 0;
-  if (reduce) {
+  Points points = e.contacts.points, normals = e.contacts.normals;
+  if (options.contacts_per_link > 0 && points.rows() > 0) {
     // A search, which needs no hull volume of a grasp that is not force-closure.
     q.open_volume = false;
-    const std::vector<int> k = reduce_contacts(e.contacts.points, e.contacts.links, options.contacts_per_link);
-    e.quality = grasp_quality(rows_of(e.contacts.points, k), rows_of(e.contacts.normals, k), ref.center, ref.radius, q);
+    const std::vector<int> k = reduce_contacts(points, e.contacts.links, options.contacts_per_link);
+    points = rows_of(e.contacts.points, k);
+    normals = rows_of(e.contacts.normals, k);
+  }
+  if (options.score) {
+    e.quality = grasp_quality(points, normals, ref.center, ref.radius, q);
   } else {
-    e.quality = grasp_quality(e.contacts.points, e.contacts.normals, ref.center, ref.radius, q);
+    e.quality.n_contacts = static_cast<int>(points.rows());
+    e.quality.epsilon_bound = epsilon_upper_bound(wrench_matrix(points, normals, ref.center, ref.radius, q.contact));
+    e.quality.epsilon_computed = false;
+    e.quality.volume_exact = false;
+    e.quality.reason = "not scored";
   }
   return e;
 }
@@ -195,6 +203,10 @@ FineTuneResult fine_tune(const GraspChecker& checker, const Pose& wrist, const E
     poses[k] = w;
     qs[k] = std::move(q);
   }
+  // A trial matters only if it beats the start: below the start's epsilon its hull is skipped
+  // (its force closure and a lower bound of its epsilon, or the full hull, still decide it).
+  if (!out.start.pruned && out.start.quality.force_closure && out.start.quality.epsilon_computed)
+    eo.quality.min_epsilon = std::max(eo.quality.min_epsilon, out.start.quality.epsilon);
   std::vector<GraspEvaluation> trials(n);
   detail::parallel_for(static_cast<std::size_t>(n), options.threads,
                        [&](std::size_t k) { trials[k] = evaluate_checked(checker, poses[k], qs[k], eo, ref); });

@@ -216,11 +216,14 @@ TEST(Quality, MinEpsilonSkipsOnlyGraspsThatCannotReachIt) {
     const pg::GraspQuality skipped = pg::grasp_quality(c.points, c.normals, Eigen::Vector3d::Zero(), 0.04, o);
     EXPECT_FALSE(skipped.epsilon_computed);
     EXPECT_LT(full.epsilon, o.min_epsilon);
-    EXPECT_FALSE(skipped.force_closure);
-    EXPECT_EQ(skipped.epsilon, 0.0);
+    // Force closure is still decided, with a lower bound of epsilon.
+    EXPECT_TRUE(skipped.force_closure);
+    EXPECT_GT(skipped.epsilon, 0.0);
+    EXPECT_LE(skipped.epsilon, full.epsilon * (1 + 1e-9));
+    EXPECT_LE(skipped.epsilon_bound, o.min_epsilon);
     EXPECT_EQ(skipped.volume, 0.0);
     EXPECT_FALSE(skipped.volume_exact);
-    EXPECT_NE(skipped.reason.find("min_epsilon"), std::string::npos);
+    EXPECT_EQ(skipped.reason, "");
   }
   EXPECT_GE(checked, 5);
 }
@@ -249,9 +252,9 @@ TEST(Quality, MinEpsilonFacetBoundIsSound) {
       EXPECT_LT(full.epsilon, o.min_epsilon) << trial;  // never skips a grasp that reaches it
       EXPECT_GE(q.epsilon_bound, full.epsilon * (1 - 1e-12)) << trial;
       skipped_by_facets += q.epsilon_bound < full.epsilon_bound;
+      EXPECT_EQ(q.force_closure, full.force_closure) << trial;  // decided even when skipped
       if (q.force_closure) {
         ++proven;
-        EXPECT_TRUE(full.force_closure) << trial;
         EXPECT_LE(q.epsilon, full.epsilon * (1 + 1e-9)) << trial;
         EXPECT_GT(q.epsilon, 0.0);
       } else {
@@ -262,6 +265,57 @@ TEST(Quality, MinEpsilonFacetBoundIsSound) {
   EXPECT_GT(cases, 40);
   EXPECT_GT(skipped_by_facets, 5);
   EXPECT_GT(proven, 0);
+}
+
+// A skip decides force closure without the full hull (Wolfe's minimum-norm point, checked on its
+// certificate): on grasps of every kind, closed or not, near the boundary or deep inside, the
+// verdict equals the full hull's, and a closed grasp's lower bound never exceeds its epsilon.
+TEST(Quality, SkippedGraspsKeepTheHullsForceClosureVerdict) {
+  std::mt19937 rng(31);
+  int closed = 0, open = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    Contacts c = sphere_grasp(rng, 3 + trial % 9, 0.04, 0.05 + 0.1 * (trial % 5));
+    if (trial % 3 == 0)  // every contact on one hemisphere: mostly not force-closure
+      for (Eigen::Index i = 0; i < c.points.rows(); ++i) {
+        c.points(i, 2) = std::abs(c.points(i, 2));
+        c.normals(i, 2) = std::abs(c.normals(i, 2));
+      }
+    const pg::GraspQuality full = pg::grasp_quality(c.points, c.normals, Eigen::Vector3d::Zero(), 0.04, options(0.5, 8));
+    if (full.rank < 6) continue;
+    for (bool open_volume : {true, false}) {
+      pg::QualityOptions o = options(0.5, 8);
+      o.open_volume = open_volume;
+      o.min_epsilon = 1e6;  // every hull skipped
+      const pg::GraspQuality q = pg::grasp_quality(c.points, c.normals, Eigen::Vector3d::Zero(), 0.04, o);
+      EXPECT_EQ(q.force_closure, full.force_closure) << trial;
+      if (full.force_closure) {
+        EXPECT_GT(q.epsilon, 0.0) << trial;
+        EXPECT_LE(q.epsilon, full.epsilon * (1 + 1e-9)) << trial;
+      } else {
+        EXPECT_EQ(q.epsilon, 0.0) << trial;
+      }
+    }
+    (full.force_closure ? closed : open) += 1;
+  }
+  EXPECT_GT(closed, 10);
+  EXPECT_GT(open, 10);
+}
+
+// Joggled input: the same force closure, and epsilon within 1e-9 relative of the exact options'.
+TEST(Quality, JoggledHullEpsilonEqualsTheExactOne) {
+  std::mt19937 rng(37);
+  int closed = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    const Contacts c = sphere_grasp(rng, 6 + trial % 8, 0.04, 0.3);
+    const pg::GraspQuality exact = pg::grasp_quality(c.points, c.normals, Eigen::Vector3d::Zero(), 0.04, options(0.5, 8));
+    pg::QualityOptions o = options(0.5, 8);
+    o.joggle = true;
+    const pg::GraspQuality joggled = pg::grasp_quality(c.points, c.normals, Eigen::Vector3d::Zero(), 0.04, o);
+    EXPECT_EQ(joggled.force_closure, exact.force_closure) << trial;
+    EXPECT_NEAR(joggled.epsilon, exact.epsilon, 1e-9 * std::max(exact.epsilon, 1e-3)) << trial;
+    closed += exact.force_closure;
+  }
+  EXPECT_GT(closed, 5);
 }
 
 TEST(Quality, ActiveSetEpsilonEqualsTheFullHull) {

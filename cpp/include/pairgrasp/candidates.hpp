@@ -47,8 +47,10 @@ struct PipelineOptions {
   EvaluateOptions evaluate;
   int max_evaluations = -1;  ///< candidates evaluated at most over all chunks (< 0: no bound)
   /// Bound first: only candidates that can reach the `hull_rank` best epsilons pay for the hull
-  /// of their (reduced) contacts. Before a chunk, T is the hull_rank-th best epsilon of the chunks
-  /// before it; a candidate whose epsilon provably lies below T (QualityOptions::min_epsilon: the
+  /// of their (reduced) contacts. A chunk's candidates are closed and bounded first (the hull-free
+  /// bound), then take their hulls best bound first, in rounds of hull_rank, 2 hull_rank, 4 ...
+  /// candidates; T is the hull_rank-th best epsilon of the candidates before the round (this
+  /// chunk's and earlier ones'). A candidate whose epsilon provably lies below T (QualityOptions::min_epsilon: the
   /// hull-free bound, then the facets of a hull of 6 of its contacts) cannot reach them: when those
   /// 6 contacts close, it is force-closure with their epsilon (a lower bound of its own), else the
   /// full hull decides. So the hull_rank best candidates and the force-closure ones are those of
@@ -143,6 +145,7 @@ class CandidatePipeline {
   const std::vector<std::vector<char>>& dof_links() const { return moved_; }
 
  private:
+  GraspQuality score_reduced(const Contacts& contacts, double threshold) const;
   const GraspChecker& checker_;
   PipelineOptions options_;
   TorqueReference reference_;

@@ -50,6 +50,9 @@ struct EvaluateOptions {
   /// order of magnitude faster on patches of ~100 contacts, and no hull volume for a grasp that is
   /// not force-closure); 0: every contact. The evaluation still lists every contact.
   int contacts_per_link = 0;
+  /// false: close, check and find the contacts only; the quality then holds n_contacts and the
+  /// hull-free epsilon_bound of the (reduced) contacts, epsilon_computed false, force_closure false.
+  bool score = true;
 };
 
 /// A grasp closed onto contact, checked and scored.
