@@ -67,7 +67,9 @@ GraspEvaluation evaluate_checked(const GraspChecker& checker, const Pose& wrist,
   e.wrist = wrist;
   e.start_dofs = dofs;
   if (options.close) {
-    CloseResult cr = close_fingers(checker, wrist, dofs);
+    CloseOptions co;
+    co.measure = false;  // the start was checked by the caller, and the clearance is not reported
+    CloseResult cr = close_fingers(checker, wrist, dofs, co);
     e.dofs = std::move(cr.dofs);
     e.check = std::move(cr.check);
     e.closing = std::move(cr.reasons);

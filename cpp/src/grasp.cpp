@@ -64,25 +64,27 @@ Eigen::VectorXi closing_directions(const Hand& hand, const Eigen::VectorXd& dofs
 
 namespace {
 
-// Largest vertex speed (m per unit of DOF k) of the given links at q, moving in direction dir.
-double link_speed(const Hand& hand, const std::vector<int>& links, const Eigen::VectorXd& q, Eigen::Index k,
-                  int dir, double lo, double hi) {
+// Largest vertex speed (m per unit of DOF k) of each of the given links at q, moving in direction dir.
+std::vector<double> link_speeds(const Hand& hand, const std::vector<int>& links, const Eigen::VectorXd& q,
+                                Eigen::Index k, int dir, double lo, double hi) {
   const double delta = 1e-6 * (hi - lo);
   Eigen::VectorXd q1 = q;
   double step = dir * delta;
   if (q[k] + step > hi || q[k] + step < lo) step = -step;
   q1[k] += step;
   const std::vector<Pose> p0 = hand.link_poses(q), p1 = hand.link_poses(q1, true);
-  double v = 0.0;
+  std::vector<double> speeds;
   for (int l : links) {
     const Mesh& m = hand.links()[l].mesh;
     const Eigen::Matrix4d dm = p1[l].matrix() - p0[l].matrix();
+    double v = 0.0;
     for (Eigen::Index i = 0; i < m.vertices.rows(); ++i) {
       const Vec3 x = m.vertices.row(i).transpose();
       v = std::max(v, (dm.topLeftCorner<3, 3>() * x + dm.topRightCorner<3, 1>()).norm());
     }
+    speeds.push_back(v / std::abs(step));
   }
-  return v / std::abs(step);
+  return speeds;
 }
 
 }  // namespace
@@ -94,8 +96,12 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
   check_rigid(wrist, "wrist");
   const Eigen::Index D = static_cast<Eigen::Index>(hand.dofs().size());
   CloseResult r;
-  r.start = checker.check(wrist, dofs);  // validates dofs
-  r.start_penetrating = r.start.penetrating || r.start.obstacle_collision;
+  if (options.measure) {
+    r.start = checker.check(wrist, dofs);  // validates dofs
+    r.start_penetrating = r.start.penetrating || r.start.obstacle_collision;
+  } else {
+    hand.link_poses(dofs);  // validates dofs
+  }
   if (options.directions.size() > 0) {
     detail::check_size("directions", D, options.directions.size());
     for (Eigen::Index k = 0; k < D; ++k)
@@ -121,14 +127,16 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
     const std::vector<int>& moving = I.dof_links[k];
     if (dir == 0 || moving.empty()) continue;
 
-    // The distance of the moving links. With distance fields, a lower bound of it beyond `above`
-    // (a conservative step, and the comparison with `above` decided); the exact value below it
-    // (0 at once where the field shows the surfaces crossing).
+    // The distance of the moving links (each link's in `per_link`). With distance fields, a
+    // lower bound of it beyond `above` (a conservative step, and the comparison with `above`
+    // decided); the exact value below it (0 at once where the field shows the surfaces crossing).
+    std::vector<double> per_link(moving.size());
     auto distance_at = [&](const Eigen::VectorXd& qq, bool active, double above) {
       const std::vector<Pose> poses = I.target_frame_poses(wrist, qq);
       double d = std::numeric_limits<double>::infinity();
-      for (int l : moving) {
-        d = std::min(d, I.link_clearance(l, poses[l], active, above));
+      for (std::size_t i = 0; i < moving.size(); ++i) {
+        per_link[i] = I.link_clearance(moving[i], poses[moving[i]], active, above);
+        d = std::min(d, per_link[i]);
         if (d <= 0.0) break;
       }
       ++r.iterations;
@@ -173,8 +181,12 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
         reason = StopReason::Blocked;
         break;
       }
-      const double v = link_speed(hand, moving, q, k, dir, lo[k], hi[k]);
-      double step = v > 0.0 ? (d - 0.25 * gap) / (1.5 * v) : std::numeric_limits<double>::infinity();
+      // Each link's own distance over its own speed: a link near the joint moves slower than the
+      // fingertip, so its distance allows a longer step.
+      const std::vector<double> v = link_speeds(hand, moving, q, k, dir, lo[k], hi[k]);
+      double step = std::numeric_limits<double>::infinity();
+      for (std::size_t i = 0; i < moving.size(); ++i)
+        if (v[i] > 0.0) step = std::min(step, (per_link[i] - 0.25 * gap) / (1.5 * v[i]));
       step = std::max(step, min_step);
       Eigen::VectorXd q_new = q;
       q_new[k] = dir > 0 ? std::min(q[k] + step, limit) : std::max(q[k] - step, limit);
@@ -205,7 +217,7 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
       }
     }
     r.reasons[k] = reason;
-    if (I.options.use_distance_field && d > stop) {  // maybe a lower bound: measure it
+    if (options.measure && I.options.use_distance_field && d > stop) {  // maybe a lower bound: measure it
       const std::vector<Pose> poses = I.target_frame_poses(wrist, q);
       d = std::numeric_limits<double>::infinity();
       for (int l : moving) d = std::min(d, I.link_distance(l, poses[l], false));

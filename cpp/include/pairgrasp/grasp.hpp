@@ -45,6 +45,10 @@ struct CloseOptions {
   /// Iterations allowed per DOF (each is a few FCL distance queries). A DOF still moving after
   /// them stops with StopReason::Blocked.
   int max_iterations = 2000;
+  /// false: skip what only reports: the check at the starting DOFs (`start`, `start_penetrating`
+  /// left unset) and, with distance fields, the exact clearance of a DOF that stopped short of
+  /// contact (its clearance is then the lower bound the closing stopped with).
+  bool measure = true;
 };
 
 /// Result of close_fingers().
