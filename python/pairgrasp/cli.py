@@ -313,7 +313,7 @@ def _add_plan_arguments(p, output_help: str):
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help=output_help)
 
 
-def _add_target_options(p):
+def _add_target_options(p, threads_help="worker threads (default 0: every core)"):
     """The `plan` options that apply to any target (shared by `plan`, `figures` and `batch`)."""
     p.add_argument("--viewpoint", action="append", nargs=3, type=float, metavar=("X", "Y", "Z"),
                    help="point (m) from which free faces must be visible (repeatable)")
@@ -325,7 +325,7 @@ def _add_target_options(p):
                    help="stop searching after S seconds and return the best grasps so far (default: no limit)")
     p.add_argument("--top", type=_count(1), default=10, help="grasps kept (default 10)")
     p.add_argument("--seed", type=_count(0), default=0, help="seed of the fine-tuning (default 0)")
-    p.add_argument("--threads", type=_count(0), default=0, help="worker threads (default 0: every core)")
+    p.add_argument("--threads", type=_count(0), default=0, help=threads_help)
     p.add_argument("--scale", type=_positive_float, default=1.0,
                    help="scale of the target, occluder and obstacle files (0.001: mm to m)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -364,7 +364,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="times a target whose worker process died is tried again (default 2)")
     batch.add_argument("--pictures", type=_count(0), default=0, help="pictures of the best grasps per target "
                        "(default 0)")
-    _add_target_options(batch)
+    _add_target_options(batch, "threads per target (default 0: the cores shared out among the local workers; "
+                        "1 per Ray task)")
     batch.set_defaults(func=_cmd_batch)
     simu = sub.add_parser("simulate", help="close, lift and shake planned grasps in MuJoCo; write the outcomes "
                           "into the grasps file")

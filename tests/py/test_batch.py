@@ -7,6 +7,7 @@ The plans use a coarse unit facet and DOF step and few evaluations so that a bat
 the batches spawn worker processes (or Ray's), which are not run against the sanitized extension.
 """
 import csv
+import importlib.util
 import json
 import os
 import shutil
@@ -29,15 +30,7 @@ no_pool = pytest.mark.skipif(bool(SANITIZED), reason="spawns worker processes of
 BROKEN = "solid broken\nfacet normal 0 0 1\nendsolid\n"
 
 
-def _has_ray():
-    try:
-        import ray  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
-needs_ray = pytest.mark.skipif(not _has_ray() or bool(SANITIZED),
+needs_ray = pytest.mark.skipif(bool(SANITIZED) or importlib.util.find_spec("ray") is None,
                                reason="needs Ray (pip install .[ray]), not run against the sanitized extension")
 
 
