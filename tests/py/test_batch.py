@@ -132,22 +132,28 @@ def test_cli_batch_writes_what_plan_writes(tmp_path, targets):
     assert sorted(os.listdir(tmp_path / "batch" / "box")) == ["grasp_01.png", "grasps.json"]
 
 
-def _children(pid, marker):
-    """Processes whose parent is ``pid`` (any, when None) and whose command line contains ``marker``."""
-    found = []
+def _descendants(marker):
+    """This process's descendants whose command line contains ``marker`` (read from /proc)."""
+    parent, cmdline = {}, {}
     for entry in os.listdir("/proc"):
         if not entry.isdigit():
             continue
         try:
             with open(f"/proc/{entry}/cmdline", "rb") as fh:
-                cmd = fh.read()
+                cmdline[int(entry)] = fh.read()
             with open(f"/proc/{entry}/stat") as fh:
-                ppid = int(fh.read().rsplit(")", 1)[1].split()[1])
+                parent[int(entry)] = int(fh.read().rsplit(")", 1)[1].split()[1])
         except (OSError, ValueError, IndexError):
             continue
-        if marker in cmd and (pid is None or ppid == pid):
-            found.append(int(entry))
-    return found
+
+    def below(pid):
+        while pid in parent and pid > 1:
+            pid = parent[pid]
+            if pid == os.getpid():
+                return True
+        return False
+
+    return [pid for pid, cmd in cmdline.items() if marker in cmd and pid in parent and below(pid)]
 
 
 def _kill_first_task(find, tmpdir, timeout=120.0):
@@ -177,7 +183,7 @@ def test_a_killed_local_worker_is_retried(tmp_path, targets, monkeypatch):
     tmpdir.mkdir()
     monkeypatch.setenv("TMPDIR", str(tmpdir))
     out = tmp_path / "out"
-    workers = lambda: _children(os.getpid(), b"spawn_main")  # noqa: E731
+    workers = lambda: _descendants(b"spawn_main")  # noqa: E731
     # Without retries the target is recorded as failed, by the signal that killed its worker.
     thread, rows = _batch_in_thread(targets=targets[:1], out=out, workers=1, retries=0)
     _kill_first_task(workers, tmpdir)
@@ -202,7 +208,7 @@ def test_a_killed_local_worker_is_retried(tmp_path, targets, monkeypatch):
 @needs_ray
 def test_a_killed_ray_worker_is_retried(tmp_path, targets):
     out = tmp_path / "out"
-    tasks = lambda: _children(None, b"ray::_run_task")  # noqa: E731
+    tasks = lambda: _descendants(b"ray::_run_task")  # noqa: E731
     thread, rows = _batch_in_thread(targets=targets[:1], out=out, engine="ray", workers=1, retries=1)
     end = time.monotonic() + 180
     while not tasks() and time.monotonic() < end:
