@@ -177,7 +177,7 @@ def _cmd_batch(args) -> int:
                      f"{'' if r['seconds'] is None else format(r['seconds'], '.1f'):>7s}")
     print("\n".join(lines))
     n = collections.Counter(r["status"] for r in rows)
-    print(f"{len(rows)} targets: {n['ok']} planned, {n['failed']} failed, {n['skipped']} skipped; "
+    print(f"{len(rows)} target{'s' * (len(rows) != 1)}: {n['ok']} planned, {n['failed']} failed, {n['skipped']} skipped; "
           f"{time.perf_counter() - t0:.1f} s; wrote {os.path.join(args.output, 'summary.csv')}")
     for r in rows:
         if r["status"] == "failed":
