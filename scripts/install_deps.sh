@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what pairgrasp needs to build and test: C++ libraries from Debian (clang and its fuzzer
 # runtime for the libFuzzer harnesses, chromium for the viewer's browser test), Python packages from
-# PyPI (atheris for the Python harness, viser for the viewer).
+# PyPI (atheris for the Python harness, viser for the viewer, Ray for `pairgrasp batch --engine ray`).
 # Safe to run again; uses sudo only when not root.
 set -euo pipefail
 
@@ -35,5 +35,5 @@ PYTHON="${PYTHON:-python3}"
 "$PYTHON" -m pip install -q --disable-pip-version-check \
   "scikit-build-core>=0.10" "pybind11>=2.12" "numpy>=1.24" "scipy>=1.10" "matplotlib>=3.6" "pytest>=7" "trimesh>=4" "libigl>=2.5" "pybullet>=3.2" \
   "mujoco>=4.0" "coacd>=1.0.14" \
-  "atheris>=2.3" "viser>=1.0"
+  "atheris>=2.3" "viser>=1.0" "ray>=2.9"
 echo "install_deps: done"

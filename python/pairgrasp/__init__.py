@@ -14,3 +14,4 @@ from .grasps_file import GRASPS_FORMAT, GraspsFile, load_grasps, parse_grasps, w
 from .inertia import MassProperties, mass_properties  # noqa: F401,E402
 from .convex import convex_pieces  # noqa: F401,E402
 from .sim import SimParams, SimResult, Simulator, simulate_grasps  # noqa: F401,E402
+from .batch import plan_batch  # noqa: F401,E402

@@ -6,6 +6,7 @@ warning (e.g. a target that is not watertight) prints one line `pairgrasp: warni
 from __future__ import annotations
 
 import argparse
+import collections
 import math
 import os
 import shutil
@@ -60,7 +61,10 @@ def _cmd_info(args) -> int:
     return 0
 
 
-def _planner_from_args(args, **extra):
+def _planner_from_args(args, names=None, **extra):
+    """The Planner of a `plan` command line (``args``); ``extra``: further PlanParams fields.
+    ``names`` maps a file given to the name grasps.json records for it (a batch task plans on copies
+    of the files and records the originals); a file not in it is recorded as given."""
     import pairgrasp as pg
 
     for name, path in [("--hand", args.hand), ("--target", args.target), ("--paint", args.paint)] + \
@@ -78,11 +82,15 @@ def _planner_from_args(args, **extra):
                          occluders=[pg.load_mesh(o, scale=args.scale) for o in (args.occluder or [])],
                          viewpoints=viewpoints,
                          obstacles=[pg.load_mesh(o, scale=args.scale) for o in (args.obstacle or [])], **params)
-    planner.inputs["target"] = args.target
+    record = (lambda path: names.get(path, path)) if names else (lambda path: path)
+    planner.inputs["hand_spec"] = record(planner.inputs["hand_spec"])
+    planner.inputs["target"] = record(args.target)
+    if args.paint:
+        planner.inputs["paint"] = record(args.paint)
     if args.occluder:
-        planner.inputs["occluders"] = list(args.occluder)
+        planner.inputs["occluders"] = [record(o) for o in args.occluder]
     if args.obstacle:
-        planner.inputs["obstacles"] = list(args.obstacle)
+        planner.inputs["obstacles"] = [record(o) for o in args.obstacle]
     if args.scale != 1.0:
         planner.inputs["scale"] = args.scale
     return planner
@@ -104,10 +112,25 @@ def _finish_outdir(tmpdir: str, outdir: str):
         os.replace(os.path.join(tmpdir, name), os.path.join(outdir, name))
 
 
-def _cmd_plan(args) -> int:
+def _write_plan(planner, result, folder: str, pictures: int, label: str) -> int:
+    """Writes what `plan` leaves in its output folder into ``folder``: grasps.json and a picture of
+    each of the best ``pictures`` grasps (``label``: the target's name in their titles). Returns the
+    number of pictures."""
     from . import render
     from .grasps_file import write_grasps
 
+    doc = result.to_dict()
+    names = []
+    for g in result.grasps[:pictures]:
+        name = f"grasp_{g.rank:02d}.png"
+        render.draw_planned(planner, g, os.path.join(folder, name), label)
+        names.append(name)
+    doc["pictures"] = names
+    write_grasps(os.path.join(folder, "grasps.json"), doc)
+    return len(names)
+
+
+def _cmd_plan(args) -> int:
     out = args.output
     if os.path.exists(out) and not os.path.isdir(out):
         raise ValueError(f"-o: {out} exists and is not a directory")
@@ -118,14 +141,7 @@ def _cmd_plan(args) -> int:
     os.makedirs(parent, exist_ok=True)
     tmpdir = tempfile.mkdtemp(prefix=".pairgrasp-", dir=parent)
     try:
-        doc = result.to_dict()
-        pictures = []
-        for g in result.grasps[: args.pictures]:
-            name = f"grasp_{g.rank:02d}.png"
-            render.draw_planned(planner, g, os.path.join(tmpdir, name), os.path.basename(args.target))
-            pictures.append(name)
-        doc["pictures"] = pictures
-        write_grasps(os.path.join(tmpdir, "grasps.json"), doc)
+        pictures = _write_plan(planner, result, tmpdir, args.pictures, os.path.basename(args.target))
         _finish_outdir(tmpdir, out)
     finally:
         shutil.rmtree(tmpdir, ignore_errors=True)
@@ -136,8 +152,38 @@ def _cmd_plan(args) -> int:
     print(_table(result))
     stages = ", ".join(f"{k} {v:.2f}" for k, v in result.timings.items() if k != "total")
     print(f"time {time.perf_counter() - t0:.1f} s ({stages} s); wrote {os.path.join(out, 'grasps.json')} and "
-          f"{len(result.grasps[: args.pictures])} pictures")
+          f"{pictures} pictures")
     return 0
+
+
+def _cmd_batch(args) -> int:
+    from .batch import plan_batch
+
+    if args.address is not None and args.engine != "ray":
+        raise ValueError("--address: only with --engine ray")
+    t0 = time.perf_counter()
+    options = {k: getattr(args, k) for k in ("schedule", "step", "top", "seed", "time_limit", "edge", "threads")
+               if getattr(args, k) is not None}
+    rows = plan_batch(args.hand, args.targets, args.output, engine=args.engine, address=args.address,
+                      workers=args.workers, retries=args.retries, pictures=args.pictures,
+                      viewpoints=args.viewpoint, obstacles=args.obstacle or (), scale=args.scale,
+                      progress=None if not args.quiet else False, **options)
+    width = max(len(r["target"]) for r in rows)
+    lines = [f"{'target':<{width}s}  {'status':<7s}  {'grasps':>6s}  {'fc':>3s}  {'epsilon':>8s}  {'seconds':>7s}"]
+    for r in rows:
+        eps = "" if r["best_epsilon"] is None else f"{r['best_epsilon']:.4f}"
+        lines.append(f"{r['target']:<{width}s}  {r['status']:<7s}  {'' if r['grasps'] is None else r['grasps']:>6}  "
+                     f"{'' if r['force_closure'] is None else r['force_closure']:>3}  {eps:>8s}  "
+                     f"{'' if r['seconds'] is None else format(r['seconds'], '.1f'):>7s}")
+    print("\n".join(lines))
+    n = collections.Counter(r["status"] for r in rows)
+    print(f"{len(rows)} target{'s' * (len(rows) != 1)}: {n['ok']} planned, {n['failed']} failed, {n['skipped']} skipped; "
+          f"{time.perf_counter() - t0:.1f} s; wrote {os.path.join(args.output, 'summary.csv')}")
+    for r in rows:
+        if r["status"] == "failed":
+            where = "" if r["error"].startswith(r["target"]) else f"{r['target']}: "
+            print(f"pairgrasp: error: {where}{r['error']}", file=sys.stderr)
+    return 1 if n["failed"] else 0
 
 
 def _cmd_figures(args) -> int:
@@ -263,6 +309,12 @@ def _add_plan_arguments(p, output_help: str):
     p.add_argument("--paint", help="paint file marking the target's free faces")
     p.add_argument("--occluder", action="append", metavar="MESH",
                    help="mesh in the target frame occluding the faces near it (repeatable)")
+    _add_target_options(p)
+    p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help=output_help)
+
+
+def _add_target_options(p, threads_help="worker threads (default 0: every core)"):
+    """The `plan` options that apply to any target (shared by `plan`, `figures` and `batch`)."""
     p.add_argument("--viewpoint", action="append", nargs=3, type=float, metavar=("X", "Y", "Z"),
                    help="point (m) from which free faces must be visible (repeatable)")
     p.add_argument("--obstacle", action="append", metavar="MESH", help="mesh the hand must not touch (repeatable)")
@@ -273,11 +325,10 @@ def _add_plan_arguments(p, output_help: str):
                    help="stop searching after S seconds and return the best grasps so far (default: no limit)")
     p.add_argument("--top", type=_count(1), default=10, help="grasps kept (default 10)")
     p.add_argument("--seed", type=_count(0), default=0, help="seed of the fine-tuning (default 0)")
-    p.add_argument("--threads", type=_count(0), default=0, help="worker threads (default 0: every core)")
+    p.add_argument("--threads", type=_count(0), default=0, help=threads_help)
     p.add_argument("--scale", type=_positive_float, default=1.0,
                    help="scale of the target, occluder and obstacle files (0.001: mm to m)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help=output_help)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -298,6 +349,24 @@ def build_parser() -> argparse.ArgumentParser:
     figs = sub.add_parser("figures", help="plan, then draw the paper's Figures 7 and 8 as PNG files")
     _add_plan_arguments(figs, "output folder for fig7_<target>.png and fig8_<target>.png")
     figs.set_defaults(func=_cmd_figures)
+    batch = sub.add_parser("batch", help="plan grasps on many targets (worker processes or a Ray cluster); "
+                           "write OUTDIR/<target>/grasps.json and OUTDIR/summary.csv")
+    batch.add_argument("--hand", required=True, help="hand spec (JSON); its folder is sent to every task")
+    batch.add_argument("--targets", required=True, nargs="+", metavar="MESH",
+                       help="target meshes (file stems must differ); <stem>.paint.json beside one is its paint")
+    batch.add_argument("-o", "--output", required=True, metavar="OUTDIR",
+                       help="output folder; targets whose folder is there already are skipped")
+    batch.add_argument("--engine", choices=("local", "ray"), default="local",
+                       help="local: worker processes on this machine (default); ray: Ray tasks")
+    batch.add_argument("--address", help="--engine ray: the Ray cluster to join (default: a local Ray instance)")
+    batch.add_argument("--workers", type=_count(1), help="targets planned at once (default: every core)")
+    batch.add_argument("--retries", type=_count(0), default=2,
+                       help="times a target whose worker process died is tried again (default 2)")
+    batch.add_argument("--pictures", type=_count(0), default=0, help="pictures of the best grasps per target "
+                       "(default 0)")
+    _add_target_options(batch, "threads per target (default 0: the cores shared out among the local workers; "
+                        "1 per Ray task)")
+    batch.set_defaults(func=_cmd_batch)
     simu = sub.add_parser("simulate", help="close, lift and shake planned grasps in MuJoCo; write the outcomes "
                           "into the grasps file")
     simu.add_argument("grasps", metavar="GRASPS", help="grasps.json written by plan (updated in place)")
