@@ -51,7 +51,7 @@ def test_friction_alone_moves_epsilon_both_ways(jaw_checker):
     # Friction uniform in [0.4, 0.6] around mu 0.5: the samples' epsilons straddle the nominal one
     # (epsilon grows with mu), and the lower quartile lies below it.
     nominal = pg.evaluate_grasp(jaw_checker, jaw_pose(), [OPEN]).epsilon
-    r = pg.robust_quality(jaw_checker, jaw_pose(), [OPEN], samples=12, translation_sigma=0.0, rotation_sigma_deg=0.0,
+    r = pg.robust_quality(jaw_checker, jaw_pose(), [OPEN], samples=8, translation_sigma=0.0, rotation_sigma_deg=0.0,
                           seed=3)
     assert min(r.epsilons) < nominal < max(r.epsilons)
     assert r.epsilon < nominal and r.force_closure_probability == 1.0
@@ -102,7 +102,7 @@ def test_robust_ranking_prefers_the_centred_grasp_over_the_edge_grasp_of_higher_
     pipe = pg.CandidatePipeline(barrett_checker, edge=0.005, backoff=0.0, contacts_per_link=4)
     pipe.process(np.array([barrett_pose(CENTRED), barrett_pose(EDGE)]), np.zeros((2, 4)), [0, 1], [1.0, 1.0], [1, 1])
     by_eps, _ = pipe.finish(2, 0, 0, 0, rank="epsilon")
-    robust, seconds = pipe.finish(2, 0, 0, 0, rank="robust", robust_samples=16)
+    robust, seconds = pipe.finish(2, 0, 0, 0, rank="robust", robust_samples=8)
     zs = lambda gs: [round(float(g.evaluation.wrist_pose[2, 3]), 4) for g in gs]   # noqa: E731
     assert all(g.force_closure for g in by_eps)
     assert zs(by_eps) == [EDGE, CENTRED] and by_eps[0].epsilon > by_eps[1].epsilon

@@ -422,8 +422,9 @@ def test_perturbed_trials_and_verification_rerank_by_outcome(tmp_path):
 @pytest.mark.slow
 def test_plan_verify_top_simulates_and_reranks(tmp_path):
     out = tmp_path / "plan"
-    r = run_cli("plan", "--hand", JAW, "--target", BOX, "--top", "3", "--seed", "1", "--pictures", "1",
-                "--verify-top", "2", "--trials", "2", "--quiet", "-o", out)
+    r = run_cli("plan", "--hand", JAW, "--target", BOX, "--paint", MODELS / "targets" / "box.paint.json", "--edge",
+                "0.008", "--top", "3", "--seed", "1", "--pictures", "1", "--verify-top", "2", "--trials", "2",
+                "--quiet", "-o", out)
     assert r.returncode == 0, r.stderr
     doc = json.loads((out / "grasps.json").read_text())
     g = doc["grasps"]
