@@ -1,25 +1,28 @@
-"""Physics check benchmark: do the planner's grasps hold more often than grasps sampled at random?
+"""Physics check benchmark: which grasps hold, ranked how, against grasps sampled at random?
 
-    python bench/bench_sim.py                         # Barrett hand on the three bundled targets
-    python bench/bench_sim.py --targets flask --random 10 --trials 2    # a quick look
+    python bench/bench_sim.py --jobs 2 --json sim.json     # bundled targets and 4 pybullet_data meshes
+    python bench/bench_sim.py --targets flask --random 2 --trials 2    # a quick look
 
-For each target the Barrett hand is planned with the `fast` schedule and with the `grid` schedule
-(at a coarser step than the hand's 0.25 rad, `--grid-step`, because the full grid takes many minutes
-per target), and the top 5 grasps of each are simulated (pairgrasp.Simulator: close, lift,
-turn gravity, shake). The baseline are grasps sampled at random around the target as GraspIt's
-random-approach planners do: a uniformly random approach direction towards the centre of mass, a
-random roll and spread, the wrist brought in along the approach until the open hand first touches
-the target, and the fingers closed onto contact (GraspChecker.close); then the same simulation.
+For each target the Barrett hand is planned with the `fast` schedule twice, ranked by robustness
+(`rank="robust"`, the default) and by epsilon (`rank="epsilon"`, the paper's), and the top 5 of each
+are simulated (pairgrasp.Simulator: close, lift, turn gravity, shake); `--methods grid` adds the
+`grid` schedule (at `--grid-step`). Targets are the bundled ones (with their paint) and meshes
+shipped in the pybullet wheel (pybullet_data, none made for pairgrasp; scaled to 0.1 m along their
+longest side, every face free). The baseline are grasps sampled at random around the target as
+GraspIt's random-approach planners do: a uniformly random approach direction towards the centre of
+mass, a random roll and spread, the wrist brought in along the approach until the open hand first
+touches the target, and the fingers closed onto contact (GraspChecker.close); then the same
+simulation. `random-fc` keeps only the random grasps whose closed contacts are force-closure.
 
-A second baseline (`random-fc`) keeps only the random grasps whose closed contacts are force-closure
-(epsilon > 0, the planner's fast lower bound), sampling until `--random` of them are found: it asks
-whether the planner's alignment adds anything to a static epsilon filter.
-
-Every grasp, planned or random, is simulated `--trials` times: trial 0 as planned, the others with
-execution and model errors drawn from one distribution (wrist offset N(0, 1 mm) per axis, wrist
+Every grasp is simulated `--trials` times with pairgrasp.trial_perturbations(trials, seed): trial 0
+as planned, the others with execution and model errors (wrist offset N(0, 1 mm) per axis, wrist
 rotation N(0, 1 degree) about a random axis, friction U(0.4, 0.6), density U(500, 1500) kg/m^3).
-The table gives the success rate of each method with a 95% Wilson interval, the comparison being
-the random baseline measured in the same run, and the simulated and CPU time per grasp.
+Trial k's errors depend only on the seed and k, so a grasp that both rankings return is simulated
+once and both are judged on the same errors. `verified` is `plan --verify-top 5`: the robust top 5
+simulated on trials of another seed and re-ranked by how often they held, then judged on the
+trials of the others. The table gives the held rate of the rank-1 grasp (top-1) and of the top 5
+with 95% Wilson intervals; a second table, over the planned grasps, how the robust ranking's
+measures and simple geometric ones relate to holding.
 """
 from __future__ import annotations
 
@@ -34,9 +37,9 @@ import time
 import numpy as np
 
 import pairgrasp as pg
-from pairgrasp import render
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))   # bench_peers, also in spawned workers
 HAND = os.path.join(ROOT, "models", "barrett", "barrett.json")
 
 
@@ -89,29 +92,19 @@ def random_grasp(hand, checker, mesh, rng, resolution=5e-4):
     return T, np.asarray(closed.dofs, float)
 
 
-def perturbation(rng, k):
-    """Trial k's wrist offset (4x4, applied in the target frame), friction and density; k = 0: none."""
-    if k == 0:
-        return np.eye(4), None, None
-    D = np.eye(4)
-    D[:3, :3] = _rotation(_unit(rng), math.radians(rng.normal(0.0, 1.0)))
-    D[:3, 3] = rng.normal(0.0, 0.001, size=3)
-    return D, float(rng.uniform(0.4, 0.6)), float(rng.uniform(500.0, 1500.0))
-
-
-def trials(sim, grasps, n_trials, rng):
-    """Simulates each (pose, dofs, epsilon) n_trials times; returns per-trial dicts."""
+def simulate(sim, cache, grasps, perturbations, label):
+    """Simulates each (pose, dofs, epsilon, extra) under every perturbation; a grasp simulated
+    before (same pose and DOFs, same target) comes from `cache`. Returns per-trial dicts."""
     out = []
-    for k_grasp, (T, q, eps) in enumerate(grasps):
-        for k in range(n_trials):
-            D, mu, rho = perturbation(rng, k)
-            P = T.copy()
-            P[:3, :3] = D[:3, :3] @ T[:3, :3]
-            P[:3, 3] = T[:3, 3] + D[:3, 3]
-            r = sim.simulate(P, q, friction=mu, density=rho)
-            out.append({"grasp": k_grasp, "trial": k, "epsilon": eps, "success": r.success, "outcome": r.outcome,
-                        "slip_translation": r.slip_translation, "slip_rotation": r.slip_rotation,
-                        "time_simulated": r.time_simulated, "wall_time": r.wall_time, "result": r})
+    for k_grasp, (T, q, eps, extra) in enumerate(grasps):
+        key = (label, np.round(np.asarray(T), 12).tobytes(), np.round(np.asarray(q), 12).tobytes())
+        if key not in cache:
+            cache[key] = pg.simulate_trials(sim, T, q, perturbations)
+        for t, r in zip(perturbations, cache[key]):
+            out.append({"grasp": k_grasp, "trial": t.index, "epsilon": eps, "success": r.success,
+                        "outcome": r.outcome, "slip_translation": r.slip_translation,
+                        "slip_rotation": r.slip_rotation, "time_simulated": r.time_simulated,
+                        "wall_time": r.wall_time, "result": r, **extra})
     return out
 
 
@@ -125,24 +118,73 @@ def wilson(k, n, z=1.96):
     return c - h, c + h
 
 
-def run(target, args, rng):
-    mesh_path = os.path.join(ROOT, "models", "targets", f"{target}.stl")
-    paint = None if args.no_paint else os.path.join(ROOT, "models", "targets", f"{target}.paint.json")
-    mesh = pg.load_mesh(mesh_path)
-    planner = pg.Planner(HAND, mesh, paint=paint, seed=args.seed, top=args.top)
+PLANNED = {"robust": ("fast", "robust"), "epsilon": ("fast", "epsilon"), "grid": ("grid", "robust")}
+METHODS = ("robust", "epsilon", "verified", "grid", "random", "random-fc")
+
+
+def _label(method):
+    return {"robust": "planner, robust ranking", "epsilon": "planner, epsilon ranking",
+            "verified": "planner, robust top 5 verified", "grid": "planner, grid, robust ranking",
+            "random": "random approach",
+            "random-fc": "random approach, force-closure only"}[method]
+
+
+def load(name):
+    """(label, mesh, paint path or None) of a bundled target name or a pybullet_data mesh path."""
+    from bench_peers import BUNDLED, load_target
+
+    label, mesh = load_target(name)
+    paint = os.path.join(ROOT, "models", "targets", f"{name}.paint.json") if name in BUNDLED else None
+    return label, mesh, paint if paint and os.path.exists(paint) else None
+
+
+def features(g, centre, radius) -> dict:
+    """What may predict holding, per planned grasp: the robust ranking's measures, the contact
+    centroid's distance from the centre of mass (in target radii), the links in contact, and along
+    how many of the target-frame axes (the simulated gravity directions) contacts lie on both sides
+    of the centre of mass."""
+    P = np.asarray(g.contact_points, float).reshape(-1, 3)
+    d = P - np.asarray(centre, float)
+    straddle = int(sum((d[:, a] > 0.002).any() and (d[:, a] < -0.002).any() for a in range(3))) if len(P) else 0
+    return {"p_fc": g.force_closure_probability, "robust_epsilon": g.robust_epsilon,
+            "com_offset": float(np.linalg.norm(d.mean(axis=0)) / radius) if len(P) else float("nan"),
+            "links": len(set(g.contact_links)), "straddle": straddle}
+
+
+def run(target, args):
+    label, mesh, paint = load(target)
+    rng = np.random.default_rng([args.seed, sum(map(ord, target))])
+    planner = pg.Planner(HAND, mesh, paint=None if args.no_paint else paint, seed=args.seed, top=args.top)
     t0 = time.perf_counter()
     sim = pg.Simulator(planner.hand, mesh)
     setup = time.perf_counter() - t0
-    rows = {}
-    for schedule, step in (("fast", None), ("grid", args.grid_step)):
-        if schedule not in args.methods:
+    perturbations = pg.trial_perturbations(args.trials, args.seed)
+    centre, radius = pg.torque_reference(mesh)
+    cache, rows, plans = {}, {}, {}
+    for method in (m for m in args.methods if m in PLANNED or m == "verified"):
+        if method == "verified":   # plan --verify-top: re-ranked on other trials than those that judge it
+            t0 = time.perf_counter()
+            res = plans.get("robust") or planner.plan(rank="robust", progress=False)
+            top = res.grasps[: args.top]
+            check = pg.trial_perturbations(args.trials, args.seed + 1000)
+            rates = [sum(r.success for r in pg.simulate_trials(sim, g.wrist_pose, g.dofs, check)) for g in top]
+            top = [top[i] for i in sorted(range(len(top)), key=lambda i: -rates[i])]
+            grasps = [(g.wrist_pose, g.dofs, g.epsilon, features(g, centre, radius)) for g in top]
+            rows[method] = {"plan_s": time.perf_counter() - t0, "trials": simulate(sim, cache, grasps, perturbations, label),
+                            "grasps": len(grasps)}
+            print(f"  {label} {method}: {_rate(rows[method]['trials'])}", file=sys.stderr, flush=True)
             continue
+        schedule, rank = PLANNED[method]
         t0 = time.perf_counter()
-        res = planner.plan(schedule=schedule, step=step, progress=False)
+        res = planner.plan(schedule=schedule, step=args.grid_step if schedule == "grid" else None, rank=rank,
+                           progress=False)
+        plans[method] = res
         plan_s = time.perf_counter() - t0
-        grasps = [(g.wrist_pose, g.dofs, g.epsilon) for g in res.grasps[: args.top]]
-        rows[schedule] = {"plan_s": plan_s, "trials": trials(sim, grasps, args.trials, rng), "grasps": len(grasps)}
-        print(f"  {target} {schedule}: planned in {plan_s:.1f} s, {_rate(rows[schedule]['trials'])}", file=sys.stderr,
+        grasps = [(g.wrist_pose, g.dofs, g.epsilon, features(g, centre, radius)) for g in res.grasps[: args.top]]
+        stages = sum(v for k, v in res.timings.items() if k != "total")
+        rows[method] = {"plan_s": plan_s, "stages_s": stages, "robust_s": res.timings.get("robust", 0.0),
+                        "trials": simulate(sim, cache, grasps, perturbations, label), "grasps": len(grasps)}
+        print(f"  {label} {method}: planned in {plan_s:.1f} s, {_rate(rows[method]['trials'])}", file=sys.stderr,
               flush=True)
     checker = pg.GraspChecker(planner.hand, mesh, obstacles=[])
     for method in ("random", "random-fc"):
@@ -155,13 +197,15 @@ def run(target, args, rng):
             T, q = random_grasp(planner.hand, checker, mesh, rng)
             e = pg.evaluate_grasp(checker, T, q, close=False, contacts_per_link=6)
             if method == "random" or e.force_closure:
-                rand.append((T, q, e.epsilon))
-        sample_s = time.perf_counter() - t0
-        rows[method] = {"plan_s": sample_s, "trials": trials(sim, rand, args.trials, rng), "grasps": len(rand),
-                        "sampled": tries}
-        print(f"  {target} {method}: {len(rand)} of {tries} samples, {_rate(rows[method]['trials'])}",
+                rand.append((T, q, e.epsilon, {}))
+        rows[method] = {"plan_s": time.perf_counter() - t0, "trials": simulate(sim, cache, rand, perturbations, label),
+                        "grasps": len(rand), "sampled": tries}
+        print(f"  {label} {method}: {len(rand)} of {tries} samples, {_rate(rows[method]['trials'])}",
               file=sys.stderr, flush=True)
-    return {"target": target, "mass": sim.target_mass, "pieces": sim.counts["pieces"]["target"],
+    for row in rows.values():
+        for t in row["trials"]:
+            t.pop("result", None)
+    return {"target": label, "mass": sim.target_mass, "pieces": sim.counts["pieces"]["target"],
             "scene_s": setup, "rows": rows}
 
 
@@ -170,99 +214,171 @@ def _rate(ts):
     return f"{k}/{len(ts)} held"
 
 
-def table(results, trials_n) -> str:
-    lines = ["| target | method | grasps x trials | held | rate (95% interval) | as planned (trial 0) | "
-             "kept in hand | simulated per grasp (s) | CPU per simulated s |", "|---|---|---|---|---|---|---|---|---|"]
+def _held(ts) -> str:
+    k, n = sum(t["success"] for t in ts), len(ts)
+    lo, hi = wilson(k, n)
+    return f"{k}/{n} {100 * k / max(n, 1):.0f}% ({100 * max(lo, 0):.0f}-{100 * min(hi, 1):.0f}%)"
+
+
+def table(results) -> str:
+    """Top-1 and top-5 held rates per target and method, then over every target."""
+    lines = ["| target | method | top-1 held (95% interval) | top-5 held (95% interval) | top-1 as planned | "
+             "kept in hand (top 5) | CPU s per simulated s |", "|---|---|---|---|---|---|---|"]
     total = {}
     for res in results:
         for method in METHODS:
-            if method not in res["rows"]:
-                continue
-            row = res["rows"][method]
-            ts = row["trials"]
-            k, n = sum(t["success"] for t in ts), len(ts)
-            tot = total.setdefault(method, {"grasps": 0, "trials": []})
-            tot["grasps"] += row["grasps"]
-            tot["trials"] += ts
-            lines.append(_row(res["target"], method, row["grasps"], ts, trials_n))
-    for method, tot in total.items():
-        lines.append(_row("**all**", method, tot["grasps"], tot["trials"], trials_n))
+            if method in res["rows"]:
+                ts = res["rows"][method]["trials"]
+                total.setdefault(method, []).extend(ts)
+                lines.append(_row(res["target"], method, ts))
+    for method, ts in total.items():
+        lines.append(_row("**all**", method, ts))
     return "\n".join(lines)
 
 
-def _row(target, method, grasps, ts, trials_n) -> str:
-    """One table row: held (success) with its Wilson interval, held as planned, kept in hand (not
-    dropped: held or slipped), mean simulated time per grasp and CPU seconds per simulated second."""
-    k, n = sum(t["success"] for t in ts), len(ts)
-    k0 = sum(t["success"] for t in ts if t["trial"] == 0)
+def _row(target, method, ts) -> str:
+    """Top-1 (the rank-1 grasp, or the first random one) and top-5 held rates with Wilson intervals."""
+    top1 = [t for t in ts if t["grasp"] == 0]
+    t0 = [t for t in top1 if t["trial"] == 0]
     kept = sum(t["outcome"] in ("held", "slipped") for t in ts)
-    lo, hi = wilson(k, n)
     sim_t = sum(t["time_simulated"] for t in ts)
     cpu = sum(t["wall_time"] for t in ts)
-    return (f"| {target} | {_label(method)} | {grasps} x {trials_n} | {k}/{n} | {100 * k / max(n, 1):.0f}% "
-            f"({100 * max(lo, 0):.0f}-{100 * min(hi, 1):.0f}%) | {k0}/{grasps} | {kept}/{n} | "
-            f"{sim_t / max(n, 1):.2f} | {cpu / max(sim_t, 1e-9):.2f} |")
+    return (f"| {target} | {_label(method)} | {_held(top1)} | {_held(ts)} | {sum(t['success'] for t in t0)}/{len(t0)} "
+            f"| {kept}/{len(ts)} | {cpu / max(sim_t, 1e-9):.2f} |")
 
 
-METHODS = ("fast", "grid", "random", "random-fc")
+def predictors(results) -> str:
+    """Per planned grasp (each once): its held rate over the trials against each feature, as the
+    Spearman rank correlation and the feature's mean over grasps that held in every trial against
+    the others."""
+    from scipy.stats import spearmanr
+
+    seen, rows = set(), []
+    for res in results:
+        for method in PLANNED:
+            by_grasp = {}
+            for t in res["rows"].get(method, {}).get("trials", []):
+                by_grasp.setdefault(t["grasp"], []).append(t)
+            for ts in by_grasp.values():
+                key = (res["target"], round(ts[0]["epsilon"], 12), ts[0].get("com_offset"))
+                if key in seen:
+                    continue
+                seen.add(key)
+                rows.append({**{k: ts[0].get(k) for k in ("epsilon", "p_fc", "robust_epsilon", "com_offset", "links",
+                                                          "straddle")},
+                             "rate": sum(t["success"] for t in ts) / len(ts)})
+    lines = [f"{len(rows)} distinct planned grasps", "| feature | Spearman rho with held rate (p) | mean, held in "
+             "every trial | mean, the others |", "|---|---|---|---|"]
+    for f in ("epsilon", "p_fc", "robust_epsilon", "com_offset", "links", "straddle"):
+        pairs = [(r[f], r["rate"]) for r in rows if r[f] is not None and np.isfinite(r[f])]
+        if len(pairs) < 3:
+            continue
+        x, y = np.array(pairs).T
+        rho, pv = spearmanr(x, y)
+        good, bad = x[y == 1], x[y < 1]
+        lines.append(f"| {f} | {rho:+.2f} ({pv:.2g}) | {good.mean() if len(good) else float('nan'):.3f} (n={len(good)}) | "
+                     f"{bad.mean() if len(bad) else float('nan'):.3f} (n={len(bad)}) |")
+    return "\n".join(lines) + "\n" + reranked(results)
 
 
-def _label(method):
-    return {"fast": "planner, fast top 5", "grid": "planner, grid top 5", "random": "random approach",
-            "random-fc": "random approach, force-closure only"}[method]
+# Features and whether more is better, for re-ranking a ranking's top 5 by one of them.
+_RERANK = (("epsilon", 1), ("p_fc", 1), ("robust_epsilon", 1), ("com_offset", -1), ("links", 1), ("straddle", 1))
+
+
+def reranked(results, method="robust") -> str:
+    """Top-1 held rate if `method`'s top 5 (already simulated, on the same trials) were re-ranked by
+    one feature (ties: the planned order): whether the feature would help as the final criterion."""
+    out = [f"top-1 held if the {_label(method)}'s top 5 were re-ranked by one feature (same trials):"]
+    for f, sign in (("planned order", 0),) + _RERANK:
+        held, n = 0, 0
+        for res in results:
+            by_grasp = {}
+            for t in res["rows"].get(method, {}).get("trials", []):
+                by_grasp.setdefault(t["grasp"], []).append(t)
+            if not by_grasp:
+                continue
+            def key(k):
+                v = by_grasp[k][0].get(f) if sign else None
+                return (-(sign * v) if v is not None and np.isfinite(v) else 0.0, k)
+            best = min(by_grasp, key=key)
+            held += sum(t["success"] for t in by_grasp[best])
+            n += len(by_grasp[best])
+        lo, hi = wilson(held, n)
+        out.append(f"  {f}: {held}/{n} {100 * held / max(n, 1):.0f}% ({100 * max(lo, 0):.0f}-{100 * min(hi, 1):.0f}%)")
+    return "\n".join(out)
+
+
+def _run_one(item):
+    target, args = item
+    return run(target, args)
 
 
 def main(argv=None) -> int:
+    from bench_peers import BUNDLED, PYBULLET
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--targets", nargs="+", default=["box", "mug", "flask"])
+    ap.add_argument("--targets", nargs="+", default=list(BUNDLED) + list(PYBULLET),
+                    help="bundled names and pybullet_data mesh paths")
     ap.add_argument("--grid-step", type=float, default=0.5, help="DOF step of the grid schedule (rad)")
     ap.add_argument("--top", type=int, default=5)
-    ap.add_argument("--random", type=int, default=20, help="random-approach grasps per target")
+    ap.add_argument("--random", type=int, default=5, help="random-approach grasps per target")
     ap.add_argument("--trials", type=int, default=4, help="trials per grasp (the first as planned)")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--methods", nargs="+", choices=METHODS, default=["fast", "grid", "random"],
-                    help="planner schedules and baselines to run")
+    ap.add_argument("--methods", nargs="+", choices=METHODS, default=["robust", "epsilon", "random"],
+                    help="rankings, schedules and baselines to run")
+    ap.add_argument("--jobs", type=int, default=1, help="targets run at once (processes)")
     ap.add_argument("--no-paint", action="store_true", help="plan with every face free")
-    ap.add_argument("--picture", help="write epsilon vs outcome of every trial 0 as this PNG")
+    ap.add_argument("--picture", help="write epsilon against the slip of every trial 0 as this PNG")
     ap.add_argument("--json", help="write the measurements as JSON")
-    ap.add_argument("--table-from", metavar="JSON", help="print the table of a run saved with --json and stop")
+    ap.add_argument("--table-from", metavar="JSON", help="print the tables of a run saved with --json and stop")
     args = ap.parse_args(argv)
     if args.table_from:
         with open(args.table_from) as fh:
             saved = json.load(fh)
-        print(table(saved, max(t["trial"] for r in saved for row in r["rows"].values() for t in row["trials"]) + 1))
+        print(table(saved["results"]))
+        print(predictors(saved["results"]))
         return 0
-    rng = np.random.default_rng(args.seed)
     t0 = time.perf_counter()
-    results = [run(t, args, rng) for t in args.targets]
-    print(f"Barrett hand, {args.trials} trials per grasp, grid step {args.grid_step} rad, seed {args.seed}, "
-          f"{'no paint' if args.no_paint else 'bundled paint'}; pairgrasp {pg.__version__}, "
-          f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores; {time.perf_counter() - t0:.0f} s")
-    print(table(results, args.trials))
+    if args.jobs > 1:
+        import multiprocessing as mp
+
+        with mp.get_context("spawn").Pool(args.jobs) as pool:
+            results = pool.map(_run_one, [(t, args) for t in args.targets], chunksize=1)
+    else:
+        results = [run(t, args) for t in args.targets]
+    print(f"Barrett hand, fast schedule top {args.top}, {args.trials} trials per grasp (seed {args.seed}), "
+          f"{args.random} random grasps per target, {'no paint' if args.no_paint else 'bundled paint'}; pairgrasp "
+          f"{pg.__version__}, {platform.processor() or platform.machine()}, {os.cpu_count()} cores, {args.jobs} jobs; "
+          f"{time.perf_counter() - t0:.0f} s")
+    print(table(results))
+    print(predictors(results))
     for res in results:
-        times = ", ".join(f"{m} {row['plan_s']:.1f} s" + (f" ({row['sampled']} samples)" if "sampled" in row else "")
-                          for m, row in res["rows"].items())
+        parts = []
+        for m, row in res["rows"].items():
+            part = f"{m} {row['plan_s']:.1f} s"
+            if "robust_s" in row and row["robust_s"]:
+                part += f" (robust ranking {row['robust_s']:.2f} s of {row['stages_s']:.2f} s of stages, " \
+                        f"{100 * row['robust_s'] / row['stages_s']:.0f}%)"
+            if "sampled" in row:
+                part += f" ({row['sampled']} samples)"
+            parts.append(part)
         print(f"{res['target']}: {res['mass']:.3f} kg, {res['pieces']} convex pieces, scene built in "
-              f"{res['scene_s']:.1f} s; planning or sampling: {times}")
+              f"{res['scene_s']:.1f} s; planning or sampling: {', '.join(parts)}")
     if args.picture:
-        eps, rs, groups = [], [], []
-        for res in results:
-            for method, row in res["rows"].items():
-                for t in row["trials"]:
-                    if t["trial"] == 0:
-                        eps.append(t["epsilon"])
-                        rs.append(t["result"])
-                        groups.append(_label(method))
-        render.simulation_figure(eps, rs, pg.SimParams(), args.picture, title="Barrett hand, bundled targets:",
-                                 groups=groups)
+        from types import SimpleNamespace
+
+        from pairgrasp import render
+
+        trial0 = [(t, _label(m)) for res in results for m, row in res["rows"].items() for t in row["trials"]
+                  if t["trial"] == 0]
+        render.simulation_figure([t["epsilon"] for t, _ in trial0],
+                                 [SimpleNamespace(slip_translation=t["slip_translation"], success=t["success"])
+                                  for t, _ in trial0], pg.SimParams(), args.picture,
+                                 title="Barrett hand:", groups=[g for _, g in trial0])
         print(f"wrote {args.picture}")
     if args.json:
-        for res in results:
-            for row in res["rows"].values():
-                for t in row["trials"]:
-                    t.pop("result", None)
         with open(args.json, "w") as fh:
-            json.dump(results, fh, indent=1, default=float)
+            json.dump({"args": vars(args), "results": results}, fh, indent=1, default=float)
     return 0
 
 

@@ -1,10 +1,11 @@
-// Planning: evaluate_grasp, fine_tune, reduce_contacts, torque_reference, the batched
+// Planning: evaluate_grasp, fine_tune, robust_quality, reduce_contacts, torque_reference, the batched
 // CandidatePipeline (settle, deduplicate, evaluate, rank, fine-tune) and GraspPlanner / plan_samples.
 #include "bind.hpp"
 
 #include <pairgrasp/candidates.hpp>
 #include <pairgrasp/evaluation.hpp>
 #include <pairgrasp/planner.hpp>
+#include <pairgrasp/robust.hpp>
 
 #include <chrono>
 #include <cmath>
@@ -264,6 +265,56 @@ void bind_planning(pyb::module_& m) {
       "radius"_a = pyb::none(), "mu"_a = 0.5, "edges"_a = 8, "soft"_a = false, "torsion"_a = pyb::none(),
       "contacts_per_link"_a = pyb::none(), "threads"_a = 1, kFineTuneDoc);
 
+  pyb::class_<RobustQuality>(m, "RobustQuality", "Force closure and epsilon under perturbations (robust_quality).")
+      .def_readonly("force_closure_probability", &RobustQuality::force_closure_probability,
+                    "Fraction of the samples that are force-closure.")
+      .def_readonly("epsilon", &RobustQuality::epsilon, "The quantile of the samples' epsilons.")
+      .def_readonly("mean_epsilon", &RobustQuality::mean_epsilon)
+      .def_readonly("samples", &RobustQuality::samples)
+      .def_readonly("backed_off", &RobustQuality::backed_off,
+                    "Samples whose start pose penetrated and backed off along the approach axis.")
+      .def_readonly("pruned", &RobustQuality::pruned, "Samples pruned after closing (counted as failures).")
+      .def_readonly("epsilons", &RobustQuality::epsilons, "Per sample (0 when pruned).")
+      .def("__repr__", [](const RobustQuality& r) {
+        return "RobustQuality(force_closure_probability=" + std::to_string(r.force_closure_probability) +
+               ", epsilon=" + std::to_string(r.epsilon) + ", samples=" + std::to_string(r.samples) +
+               ", pruned=" + std::to_string(r.pruned) + ")";
+      });
+
+  m.def(
+      "robust_quality",
+      [](const GraspChecker& checker, const pyb::object& wrist_pose, const pyb::object& dofs, const pyb::object& samples,
+         double translation_sigma, double rotation_sigma_deg, double friction_spread, double quantile,
+         std::uint64_t seed, const pyb::object& center, const pyb::object& radius, double mu, int edges,
+         const pyb::object& contacts_per_link, int threads) {
+        const Pose w = pose_from(wrist_pose, "wrist_pose");
+        const Eigen::VectorXd q = dofs_arg(dofs, checker.hand());
+        RobustOptions o;
+        o.samples = count_arg(samples, "samples", 1);
+        o.translation_sigma = translation_sigma;
+        o.rotation_sigma = rotation_sigma_deg * 3.14159265358979323846 / 180.0;
+        o.friction_spread = friction_spread;
+        o.quantile = quantile;
+        o.seed = seed;
+        o.threads = threads;
+        o.evaluate = evaluate_options(center, radius, mu, edges, false, std::nullopt, contacts_per_link, checker);
+        pyb::gil_scoped_release release;
+        return robust_quality(checker, w, q, o);
+      },
+      "checker"_a, "wrist_pose"_a, "dofs"_a, "samples"_a = RobustOptions().samples,
+      "translation_sigma"_a = RobustOptions().translation_sigma, "rotation_sigma_deg"_a = 1.0,
+      "friction_spread"_a = RobustOptions().friction_spread, "quantile"_a = RobustOptions().quantile, "seed"_a = 0,
+      "center"_a = pyb::none(), "radius"_a = pyb::none(), "mu"_a = 0.5, "edges"_a = 8,
+      "contacts_per_link"_a = pyb::none(), "threads"_a = 1,
+      "How a grasp's force closure and epsilon hold up under execution and model error: the grasp (wrist_pose, and "
+      "dofs: the DOF values before closing) is closed and scored again at `samples` perturbations, each the wrist "
+      "turned by N(0, rotation_sigma_deg) degrees about a random axis through the wrist origin and moved by "
+      "N(0, translation_sigma) m per axis, with friction uniform in [mu (1 - friction_spread), mu (1 + "
+      "friction_spread)]. A sample whose start pose penetrates backs off along the approach axis (0.5 mm steps, at "
+      "most 3 mm); one still pruned after closing is a failure. Returns RobustQuality: the fraction of "
+      "force-closure samples and the `quantile` of their epsilons. Drawn from std::mt19937_64(seed) before any is "
+      "evaluated: the same on every platform and thread count.");
+
   m.def(
       "reduce_contacts",
       [](const pyb::object& points, const pyb::sequence& links, const pyb::object& per_link) {
@@ -319,6 +370,7 @@ void bind_planning(pyb::module_& m) {
       .def_readonly("candidate", &RankedGrasp::candidate, "Index into CandidatePipeline.evaluated.")
       .def_readonly("evaluation", &RankedGrasp::evaluation)
       .def_readonly("fine_tuned", &RankedGrasp::fine_tuned)
+      .def_readonly("robust", &RankedGrasp::robust, "RobustQuality (robust ranking), or None.")
       .def_property_readonly("epsilon", [](const RankedGrasp& g) { return g.quality.epsilon; }, "From every contact.")
       .def_property_readonly("volume", [](const RankedGrasp& g) { return g.quality.volume; })
       .def_property_readonly("force_closure", [](const RankedGrasp& g) { return g.quality.force_closure; });
@@ -403,22 +455,34 @@ void bind_planning(pyb::module_& m) {
       .def(
           "finish",
           [](const CandidatePipeline& p, int top, int fine_tune, int iterations, std::uint64_t seed,
-             std::optional<double> time_left) {
+             std::optional<double> time_left, const std::string& rank, int robust_samples, int robust_extra) {
             FinishOptions o;
             o.top = top;
             o.fine_tune = fine_tune;
             o.fine_tune_iterations = iterations;
             o.seed = seed;
+            o.rank = ranking_from_string(rank);
+            o.robust.samples = robust_samples;
+            o.robust_extra = robust_extra;
             if (time_left)
               o.deadline = std::chrono::steady_clock::now() +
                            std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                std::chrono::duration<double>(std::max(0.0, *time_left)));
-            pyb::gil_scoped_release release;
-            return p.finish(o);
+            FinishTimings t;
+            std::vector<RankedGrasp> grasps;
+            {
+              pyb::gil_scoped_release release;
+              grasps = p.finish(o, &t);
+            }
+            return pyb::make_tuple(grasps, pyb::dict("fine_tune"_a = t.fine_tune, "robust"_a = t.robust));
           },
           "top"_a, "fine_tune"_a, "fine_tune_iterations"_a, "seed"_a, "time_left"_a = pyb::none(),
+          "rank"_a = "robust", "robust_samples"_a = RobustOptions().samples, "robust_extra"_a = FinishOptions().robust_extra,
           "Rank the evaluated candidates, fine-tune the `fine_tune` best (seed + rank; none starts after `time_left` "
-          "seconds), drop near-duplicates and return at most `top` RankedGrasp, best first, scored with every contact.");
+          "seconds), drop near-duplicates, score them with every contact and return (at most `top` RankedGrasp, best "
+          "first; {'fine_tune', 'robust'} seconds). rank 'robust': the top + robust_extra best by epsilon are scored "
+          "by robust_quality (robust_samples each) and ranked by force-closure probability, then robust epsilon; "
+          "'epsilon': by force closure and epsilon.");
 
   pyb::class_<PlannerSetup>(m, "PlannerSetup", "Parameters resolved from the hand and the target (resolve_planner).")
       .def_readonly("edge", &PlannerSetup::edge, "Unit-facet edge (m).")
@@ -507,7 +571,7 @@ void bind_planning(pyb::module_& m) {
       "plan_samples",
       [](const GraspPlanner& planner, const pyb::object& samples, int poses_per_sample, int chunk, double step, int top,
          int fine_tune, int fine_tune_iterations, std::uint64_t seed, double mu, int edges, int contacts_per_link,
-         int max_evaluations, int hull_rank) {
+         int max_evaluations, int hull_rank, const std::string& rank, int robust_samples) {
         const std::vector<Eigen::VectorXd> qs = samples_from(samples, static_cast<long>(planner.hand().dofs().size()));
         PlanOptions o;
         o.poses_per_sample = poses_per_sample;
@@ -522,6 +586,8 @@ void bind_planning(pyb::module_& m) {
         o.contacts_per_link = contacts_per_link;
         o.max_evaluations = max_evaluations;
         o.hull_rank = hull_rank;
+        o.rank = ranking_from_string(rank);
+        o.robust_samples = robust_samples;
         PlanReport r;
         {
           pyb::gil_scoped_release release;
@@ -533,6 +599,7 @@ void bind_planning(pyb::module_& m) {
       "step"_a = 0.0, "top"_a = PlanOptions().top, "fine_tune"_a = PlanOptions().fine_tune,
       "fine_tune_iterations"_a = PlanOptions().fine_tune_iterations, "seed"_a = 0, "mu"_a = 0.5, "edges"_a = 8,
       "contacts_per_link"_a = PlanOptions().contacts_per_link, "max_evaluations"_a = -1, "hull_rank"_a = -1,
+      "rank"_a = "robust", "robust_samples"_a = PlanOptions().robust_samples,
       "The C++ planning call: align each sample (K, D), settle, evaluate, rank and fine-tune, `chunk` samples at a "
       "time. Returns (grasps: list of RankedGrasp, candidates: list of EvaluatedCandidate, counts, timings).");
 #undef PG_PLANNER_ARGS

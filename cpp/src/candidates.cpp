@@ -23,6 +23,14 @@ const char* to_string(Settled settled) {
   return "unknown";
 }
 
+const char* to_string(Ranking ranking) { return ranking == Ranking::Robust ? "robust" : "epsilon"; }
+
+Ranking ranking_from_string(const std::string& name) {
+  if (name == "robust") return Ranking::Robust;
+  if (name == "epsilon") return Ranking::Epsilon;
+  throw std::invalid_argument("rank: expected 'robust' or 'epsilon', got '" + name + "'");
+}
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -344,7 +352,10 @@ GraspQuality CandidatePipeline::score_reduced(const Contacts& k, double threshol
   return grasp_quality(pts, nrm, reference_.center, reference_.radius, qo);
 }
 
-std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options) const {
+std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options, FinishTimings* timings) const {
+  const auto t_start = Clock::now();
+  if (options.robust_extra < 0)
+    throw std::invalid_argument("robust_extra: expected an integer >= 0, got " + std::to_string(options.robust_extra));
   if (options.top < 1) throw std::invalid_argument("top: expected an integer >= 1, got " + std::to_string(options.top));
   if (options.fine_tune < 0 || options.fine_tune_iterations < 0)
     throw std::invalid_argument("fine_tune: expected counts >= 0");
@@ -389,6 +400,8 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options)
                    [&](const RankedGrasp& a, const RankedGrasp& b) { return tuned_key(a) > tuned_key(b); });
 
   // Near-duplicates (same wrist position within h, DOFs within half a step) are returned once.
+  const bool robust = options.rank == Ranking::Robust;
+  const int pool = robust ? options.top + options.robust_extra : options.top;
   std::vector<RankedGrasp> chosen;
   std::set<std::vector<std::int64_t>> signatures;
   for (RankedGrasp& g : tuned) {
@@ -401,7 +414,7 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options)
     }
     if (!signatures.insert(sig).second) continue;
     chosen.push_back(std::move(g));
-    if (static_cast<int>(chosen.size()) >= options.top) break;
+    if (static_cast<int>(chosen.size()) >= pool) break;
   }
 
   // The returned grasps are scored again with every contact.
@@ -415,17 +428,39 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options)
                             ? grasp_quality(e.contacts.points, e.contacts.normals, reference_.center, reference_.radius, full)
                             : e.quality;
   });
+  const auto t_robust = Clock::now();
+  if (robust) score_robust(chosen, options);
+  const double robust_seconds = robust ? seconds_since(t_robust) : 0.0;
   std::vector<std::size_t> order(chosen.size());
   std::iota(order.begin(), order.end(), 0);
   auto final_key = [&](std::size_t i) {
     const Candidate& c = evaluated_[chosen[i].candidate].candidate;
-    return std::make_tuple(chosen[i].quality.force_closure, chosen[i].quality.epsilon, c.quality, c.votes,
-                           -static_cast<long>(i));
+    const RobustQuality none;
+    const RobustQuality& r = chosen[i].robust ? *chosen[i].robust : none;
+    return std::make_tuple(r.force_closure_probability, r.epsilon, chosen[i].quality.force_closure,
+                           chosen[i].quality.epsilon, c.quality, c.votes, -static_cast<long>(i));
   };
   std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return final_key(a) > final_key(b); });
   std::vector<RankedGrasp> out;
-  for (std::size_t i : order) out.push_back(std::move(chosen[i]));
+  for (std::size_t i : order) {
+    if (static_cast<int>(out.size()) >= options.top) break;
+    out.push_back(std::move(chosen[i]));
+  }
+  if (timings) {
+    timings->robust = robust_seconds;
+    timings->fine_tune = seconds_since(t_start) - robust_seconds;
+  }
   return out;
+}
+
+void CandidatePipeline::score_robust(std::vector<RankedGrasp>& grasps, const FinishOptions& options) const {
+  RobustOptions ro = options.robust;
+  ro.evaluate = options_.evaluate;
+  ro.threads = options_.threads;
+  for (RankedGrasp& g : grasps) {
+    ro.seed = options.seed + 0x9E3779B97F4A7C15ULL * static_cast<std::uint64_t>(g.candidate + 1);
+    g.robust = robust_quality(checker_, g.evaluation.wrist, g.evaluation.start_dofs, ro);
+  }
 }
 
 }  // namespace pairgrasp

@@ -1,6 +1,7 @@
 // Scoring a grasp (close, check, contacts, epsilon) and fine-tuning it by local random search.
 #include <pairgrasp/evaluation.hpp>
 
+#include "random_internal.hpp"
 #include "thread_pool.hpp"
 
 #include <algorithm>
@@ -12,6 +13,10 @@
 #include <tuple>
 
 namespace pairgrasp {
+
+using detail::uniform;
+using detail::uniform01;
+using detail::unit_vector;
 
 TorqueReference torque_reference(const Mesh& mesh) {
   TorqueReference r;
@@ -119,26 +124,6 @@ void check_options(const EvaluateOptions& options, const TorqueReference& ref) {
                                 std::to_string(options.contacts_per_link));
   // The quality options are checked once, before any closing (grasp_quality throws for bad ones).
   grasp_quality(Points(0, 3), Points(0, 3), ref.center, ref.radius, options.quality);
-}
-
-// Uniform double in [0, 1) from 53 random bits.
-double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
-double uniform(std::mt19937_64& rng, double lo, double hi) { return lo + (hi - lo) * uniform01(rng); }
-
-// Standard normal by the Box-Muller transform (one value per call; std::normal_distribution's
-// algorithm is implementation-defined, this is not).
-double normal(std::mt19937_64& rng) {
-  const double u1 = 1.0 - uniform01(rng);  // (0, 1]
-  const double u2 = uniform01(rng);
-  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * 3.14159265358979323846 * u2);
-}
-
-Eigen::Vector3d unit_vector(std::mt19937_64& rng) {
-  for (;;) {
-    const Eigen::Vector3d v(normal(rng), normal(rng), normal(rng));
-    const double n = v.norm();
-    if (n > 1e-12) return v / n;
-  }
 }
 
 }  // namespace

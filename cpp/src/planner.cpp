@@ -274,7 +274,7 @@ PlanReport plan_samples(const GraspPlanner& planner, const std::vector<Eigen::Ve
   PlanReport report;
   for (const char* k : {"samples", "aligned_poses", "settled", "settled_aligned", "evaluated", "force_closure"})
     report.counts[k] = 0;
-  for (const char* k : {"align", "settle", "evaluate", "fine_tune"}) report.timings[k] = 0.0;
+  for (const char* k : {"align", "settle", "evaluate", "fine_tune", "robust"}) report.timings[k] = 0.0;
   const PlannerSetup& setup = planner.setup();
   PipelineOptions po;
   po.edge = setup.edge;
@@ -330,8 +330,12 @@ PlanReport plan_samples(const GraspPlanner& planner, const std::vector<Eigen::Ve
   fo.fine_tune = o.fine_tune;
   fo.fine_tune_iterations = o.fine_tune_iterations;
   fo.seed = o.seed;
-  report.grasps = pipe.finish(fo);
-  report.timings["fine_tune"] = seconds_since(t0);
+  fo.rank = o.rank;
+  fo.robust.samples = o.robust_samples;
+  FinishTimings ft;
+  report.grasps = pipe.finish(fo, &ft);
+  report.timings["fine_tune"] = seconds_since(t0) - ft.robust;
+  report.timings["robust"] = ft.robust;
   report.candidates = pipe.evaluated();
   for (const EvaluatedCandidate& c : report.candidates) report.counts["force_closure"] += c.evaluation.quality.force_closure;
   return report;

@@ -3,7 +3,7 @@
 // `pairgrasp simulate` and `pairgrasp view` read.
 //
 //   plan_grasps --hand SPEC --target MESH [--paint FILE] [--step RAD] [--top K] [--seed S]
-//               [--threads N] -o FILE
+//               [--rank robust|epsilon] [--threads N] -o FILE
 #include <pairgrasp/error.hpp>
 #include <pairgrasp/hand.hpp>
 #include <pairgrasp/mesh.hpp>
@@ -30,12 +30,13 @@ struct Args {
   int top = 10;
   unsigned long seed = 0;
   int threads = 0;
+  pg::Ranking rank = pg::Ranking::Robust;
 };
 
 [[noreturn]] void usage(const std::string& why) {
   std::fprintf(stderr,
                "plan_grasps: %s\nusage: plan_grasps --hand SPEC --target MESH [--paint FILE] [--step RAD] [--top K] "
-               "[--seed S] [--threads N] -o FILE\n",
+               "[--seed S] [--rank robust|epsilon] [--threads N] -o FILE\n",
                why.c_str());
   std::exit(2);
 }
@@ -61,7 +62,13 @@ Args parse(int argc, char** argv) {
     else if (f == "--top") a.top = static_cast<int>(number(f, v));
     else if (f == "--seed") a.seed = static_cast<unsigned long>(number(f, v));
     else if (f == "--threads") a.threads = static_cast<int>(number(f, v));
-    else usage("unknown option " + f);
+    else if (f == "--rank") {
+      try {
+        a.rank = pg::ranking_from_string(v);
+      } catch (const std::invalid_argument& e) {
+        usage(e.what());
+      }
+    } else usage("unknown option " + f);
   }
   if (a.hand.empty() || a.target.empty() || a.out.empty()) usage("--hand, --target and -o are required");
   if (a.step < 0.0 || a.top < 1 || a.threads < 0) usage("--step must be >= 0, --top >= 1, --threads >= 0");
@@ -119,6 +126,7 @@ int main(int argc, char** argv) {
     o.step = args.step;
     o.top = args.top;
     o.seed = args.seed;
+    o.rank = args.rank;
     const pg::PlanReport report = pg::plan_samples(planner, samples, o);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
@@ -126,14 +134,19 @@ int main(int argc, char** argv) {
     std::printf("%s on %s: %zu samples, %ld candidates evaluated, %ld force-closure; edge %.4g m, d_max %.4g m\n",
                 hand.name().c_str(), args.target.c_str(), samples.size(), report.counts.at("evaluated"),
                 report.counts.at("force_closure"), s.edge, s.d_max);
-    std::printf("rank  epsilon   volume     Q_A      votes  contacts  dofs\n");
+    std::printf("rank  epsilon  P(fc)  eps_q25   volume     Q_A      votes  contacts  dofs\n");
     std::ostringstream grasps;
     int rank = 0;
     for (const pg::RankedGrasp& g : report.grasps) {
       const pg::EvaluatedCandidate& c = report.candidates[g.candidate];
       const pg::GraspEvaluation& e = g.evaluation;
       ++rank;
-      std::printf("%4d  %.5f  %.3e  %7.2f  %5d  %8ld  [", rank, g.quality.epsilon, g.quality.volume,
+      if (g.robust)
+        std::printf("%4d  %.5f  %5.2f  %.5f  ", rank, g.quality.epsilon, g.robust->force_closure_probability,
+                    g.robust->epsilon);
+      else
+        std::printf("%4d  %.5f      -        -  ", rank, g.quality.epsilon);
+      std::printf("%.3e  %7.2f  %5d  %8ld  [", g.quality.volume,
                   c.candidate.quality, c.candidate.votes, static_cast<long>(e.contacts.points.rows()));
       for (Eigen::Index d = 0; d < e.dofs.size(); ++d) std::printf("%s%.4f", d ? " " : "", e.dofs[d]);
       std::printf("]%s\n", g.quality.force_closure ? "" : "  (not force-closure)");
@@ -156,7 +169,11 @@ int main(int argc, char** argv) {
              << ", \"alignment_quality\": " << num(c.candidate.quality) << ", \"votes\": " << c.candidate.votes
              << ", \"penetration_depth\": " << num(e.depth) << ", \"contacts\": " << contacts
              << ", \"sample\": " << list(c.candidate.dofs) << ", \"aligned_pose\": " << matrix(c.candidate.pose)
-             << ", \"backoff\": " << num(c.backoff) << ", \"fine_tuned\": " << (g.fine_tuned ? "true" : "false") << "}";
+             << ", \"backoff\": " << num(c.backoff) << ", \"fine_tuned\": " << (g.fine_tuned ? "true" : "false");
+      if (g.robust)
+        grasps << ", \"force_closure_probability\": " << num(g.robust->force_closure_probability)
+               << ", \"robust_epsilon\": " << num(g.robust->epsilon);
+      grasps << "}";
     }
     std::ostringstream doc;
     doc << "{\n  \"format\": \"pairgrasp.grasps/1\",\n"
@@ -166,6 +183,7 @@ int main(int argc, char** argv) {
         << ", \"free_faces\": " << planner.free().count() << "},\n"
         << "  \"parameters\": {\"schedule\": \"grid\", \"step\": " << (args.step > 0 ? num(args.step) : "null")
         << ", \"poses_per_sample\": " << o.poses_per_sample << ", \"top\": " << o.top << ", \"seed\": " << o.seed
+        << ", \"rank\": " << quoted(pg::to_string(o.rank)) << ", \"robust_samples\": " << o.robust_samples
         << ", \"fine_tune\": " << o.fine_tune << ", \"fine_tune_iterations\": " << o.fine_tune_iterations
         << ", \"contacts_per_link\": " << o.contacts_per_link << ", \"mu\": " << num(o.mu) << ", \"edges\": " << o.edges
         << ", \"edge\": " << num(s.edge) << ", \"d_max\": " << num(s.d_max) << ", \"constellation\": "
@@ -184,9 +202,10 @@ int main(int argc, char** argv) {
       if (!(f << doc.str())) throw pg::FileError(args.out, "cannot write");
     }
     if (std::rename(part.c_str(), args.out.c_str()) != 0) throw pg::FileError(args.out, "cannot write");
-    std::printf("time %.2f s (index %.2f, align %.2f, settle %.2f, evaluate %.2f, fine_tune %.2f s); wrote %s\n",
-                seconds, planner.setup_seconds(), report.timings.at("align"), report.timings.at("settle"),
-                report.timings.at("evaluate"), report.timings.at("fine_tune"), args.out.c_str());
+    std::printf("time %.2f s (index %.2f, align %.2f, settle %.2f, evaluate %.2f, fine_tune %.2f, robust %.2f s); "
+                "wrote %s\n", seconds, planner.setup_seconds(), report.timings.at("align"), report.timings.at("settle"),
+                report.timings.at("evaluate"), report.timings.at("fine_tune"), report.timings.at("robust"),
+                args.out.c_str());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "plan_grasps: %s\n", e.what());
     return 1;

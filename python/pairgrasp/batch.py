@@ -38,7 +38,7 @@ SUMMARY_COLUMNS = ("target", "status", "error", "grasps", "force_closure", "best
 # The hand's folder is shipped to every task; a spec lying in a large folder is refused.
 _HAND_FOLDER_LIMIT = 64 << 20
 # PlanParams fields the `plan` command line sets itself (the rest go to the Planner as they are).
-_PLAN_ARGS = ("schedule", "step", "top", "seed", "threads", "time_limit", "edge")
+_PLAN_ARGS = ("schedule", "step", "top", "seed", "threads", "time_limit", "edge", "rank")
 
 
 def plan_batch(hand, targets: Sequence, out, engine: str = "local", *, address: Optional[str] = None,

@@ -73,7 +73,7 @@ def _planner_from_args(args, names=None, **extra):
             raise ValueError(f"{name}: {'not a file' if os.path.exists(path) else 'no such file'}: {path}")
     target = pg.load_mesh(args.target, scale=args.scale)
     params = dict(schedule=args.schedule, step=args.step, top=args.top, seed=args.seed, threads=args.threads,
-                  time_limit=args.time_limit)
+                  time_limit=args.time_limit, rank=args.rank)
     if args.edge is not None:
         params["edge"] = args.edge
     params.update(extra)
@@ -96,12 +96,18 @@ def _planner_from_args(args, names=None, **extra):
     return planner
 
 
-def _table(result) -> str:
-    rows = [f"{'rank':>4s}  {'epsilon':>8s}  {'fc':>3s}  {'Q_A':>8s}  {'votes':>5s}  {'penetration':>11s}  contacts"]
-    for g in result.grasps:
-        rows.append(f"{g.rank:>4d}  {g.epsilon:>8.4f}  {'yes' if g.force_closure else 'no':>3s}  "
+def _table(grasps, held=None) -> str:
+    """The grasps as printed by plan; ``held``: {planned rank: success rate} of verified grasps."""
+    robust = any(g.force_closure_probability is not None for g in grasps)
+    rows = [f"{'rank':>4s}  {'epsilon':>8s}  {'fc':>3s}" + ("  P(fc)  eps_q25" if robust else "") +
+            f"  {'Q_A':>8s}  {'votes':>5s}  {'penetration':>11s}  contacts" + ("  held" if held else "")]
+    for rank, g in enumerate(grasps, start=1):
+        r = (f"  {g.force_closure_probability:5.2f}  {g.robust_epsilon:7.4f}" if g.force_closure_probability is not None
+             else "      -        -") if robust else ""
+        h = (f"  {held[g.rank]:.2f} (planned {g.rank})" if g.rank in held else "") if held else ""
+        rows.append(f"{rank:>4d}  {g.epsilon:>8.4f}  {'yes' if g.force_closure else 'no':>3s}{r}  "
                     f"{g.alignment_quality:>8.3f}  {g.votes:>5d}  {1000 * g.penetration_depth:>8.2f} mm  "
-                    f"{len(g.contact_points)}")
+                    f"{len(g.contact_points):>8d}{h}")
     return "\n".join(rows)
 
 
@@ -112,28 +118,39 @@ def _finish_outdir(tmpdir: str, outdir: str):
         os.replace(os.path.join(tmpdir, name), os.path.join(outdir, name))
 
 
-def _write_plan(planner, result, folder: str, pictures: int, label: str) -> int:
+def _write_plan(planner, result, folder: str, pictures: int, label: str, verify=None):
     """Writes what `plan` leaves in its output folder into ``folder``: grasps.json and a picture of
-    each of the best ``pictures`` grasps (``label``: the target's name in their titles). Returns the
-    number of pictures."""
+    each of the best ``pictures`` grasps (``label``: the target's name in their titles). ``verify``
+    (plan --verify-top): a function (path, document) that writes the document to path, simulates
+    the best grasps and re-ranks them, returning (grasps in the new order, {planned rank: success
+    rate}). Returns (number of pictures, grasps in their final order, that success map or None)."""
     from . import render
-    from .grasps_file import write_grasps
+    from .grasps_file import load_grasps, write_grasps
 
     doc = result.to_dict()
+    path = os.path.join(folder, "grasps.json")
+    grasps, held = result.grasps, None
+    if verify is not None:
+        grasps, held = verify(path, doc)
+        doc = load_grasps(path).document
     names = []
-    for g in result.grasps[:pictures]:
-        name = f"grasp_{g.rank:02d}.png"
+    for rank, g in enumerate(grasps[:pictures], start=1):
+        name = f"grasp_{rank:02d}.png"
         render.draw_planned(planner, g, os.path.join(folder, name), label)
         names.append(name)
     doc["pictures"] = names
-    write_grasps(os.path.join(folder, "grasps.json"), doc)
-    return len(names)
+    write_grasps(path, doc)
+    return len(names), grasps, held
 
 
 def _cmd_plan(args) -> int:
     out = args.output
     if os.path.exists(out) and not os.path.isdir(out):
         raise ValueError(f"-o: {out} exists and is not a directory")
+    if args.verify_top:
+        from .sim import import_mujoco
+
+        import_mujoco()                          # say what is missing before planning
     t0 = time.perf_counter()
     planner = _planner_from_args(args)
     result = planner.plan(progress=None if not args.quiet else False)
@@ -141,7 +158,9 @@ def _cmd_plan(args) -> int:
     os.makedirs(parent, exist_ok=True)
     tmpdir = tempfile.mkdtemp(prefix=".pairgrasp-", dir=parent)
     try:
-        pictures = _write_plan(planner, result, tmpdir, args.pictures, os.path.basename(args.target))
+        verify = (lambda path, doc: _verify(args, planner, result, path, doc)) if args.verify_top else None
+        pictures, grasps, held = _write_plan(planner, result, tmpdir, args.pictures, os.path.basename(args.target),
+                                             verify)
         _finish_outdir(tmpdir, out)
     finally:
         shutil.rmtree(tmpdir, ignore_errors=True)
@@ -149,7 +168,7 @@ def _cmd_plan(args) -> int:
     print(f"{planner.hand.name} on {args.target}: {c['unit_facets']} unit facets, {c['stored_pairs']} pairs, "
           f"{c['samples']} DOF samples ({c['rejected']} rejected), {c['evaluated']} candidates evaluated, "
           f"{c['force_closure']} force-closure")
-    print(_table(result))
+    print(_table(grasps, held))
     stages = ", ".join(f"{k} {v:.2f}" for k, v in result.timings.items() if k != "total")
     print(f"time {time.perf_counter() - t0:.1f} s ({stages} s); wrote {os.path.join(out, 'grasps.json')} and "
           f"{pictures} pictures")
@@ -162,7 +181,7 @@ def _cmd_batch(args) -> int:
     if args.address is not None and args.engine != "ray":
         raise ValueError("--address: only with --engine ray")
     t0 = time.perf_counter()
-    options = {k: getattr(args, k) for k in ("schedule", "step", "top", "seed", "time_limit", "edge", "threads")
+    options = {k: getattr(args, k) for k in ("schedule", "step", "top", "seed", "time_limit", "edge", "threads", "rank")
                if getattr(args, k) is not None}
     rows = plan_batch(args.hand, args.targets, args.output, engine=args.engine, address=args.address,
                       workers=args.workers, retries=args.retries, pictures=args.pictures,
@@ -184,6 +203,21 @@ def _cmd_batch(args) -> int:
             where = "" if r["error"].startswith(r["target"]) else f"{r['target']}: "
             print(f"pairgrasp: error: {where}{r['error']}", file=sys.stderr)
     return 1 if n["failed"] else 0
+
+
+def _verify(args, planner, result, path, doc):
+    """plan --verify-top: simulates the best grasps (written to ``path`` first) and re-ranks them by
+    how often they held; returns the grasps in the new order and {planned rank: success rate}."""
+    from .grasps_file import load_grasps, write_grasps
+    from .sim import verify_grasps
+
+    write_grasps(path, doc)
+    order = verify_grasps(path, top=args.verify_top, trials=args.trials, seed=args.seed,
+                          hand=planner.hand, target=planner.target)
+    saved = load_grasps(path).document
+    held = {g["planned_rank"]: g["simulation"]["success_rate"] for g in saved["grasps"] if "simulation" in g}
+    by_rank = {g.rank: g for g in result.grasps}
+    return [by_rank[r] for r in order], held
 
 
 def _cmd_figures(args) -> int:
@@ -227,20 +261,26 @@ def _cmd_simulate(args) -> int:
             sys.stderr.flush()
     t0 = time.perf_counter()
     rep = simulate_grasps(args.grasps, top=args.top, hand=args.hand, target=args.target, params=params,
-                          picture=not args.no_picture, progress=bar)
+                          picture=not args.no_picture, progress=bar, trials=args.trials, seed=args.seed)
     c = rep.counts
     print(f"{c['bodies']} bodies, {c['joints']} joints, {c['equalities']} equality constraints, "
           f"{c['actuators']} actuators, {c['geoms']} convex geoms; target {rep.params.density:g} kg/m^3, "
           f"friction {rep.params.friction:g}")
-    rows = [f"{'rank':>4s}  {'epsilon':>8s}  {'outcome':>8s}  {'slip':>9s}  {'turn':>9s}  {'sim':>6s}  {'cpu':>6s}"]
-    for rank, eps, r in zip(rep.ranks, rep.epsilons, rep.results):
+    several = args.trials > 1
+    rows = [f"{'rank':>4s}  {'epsilon':>8s}  {'outcome':>8s}  {'slip':>9s}  {'turn':>9s}  {'sim':>6s}  {'cpu':>6s}" +
+            (f"  held of {args.trials} trials" if several else "")]
+    for rank, eps, r, rate in zip(rep.ranks, rep.epsilons, rep.results, rep.success_rates):
         slip = f"{1000 * r.slip_translation:6.2f} mm" if np.isfinite(r.slip_translation) else "     inf"
         turn = f"{math.degrees(r.slip_rotation):5.1f} deg" if np.isfinite(r.slip_rotation) else "    inf"
         rows.append(f"{rank:>4d}  {eps:>8.4f}  {r.outcome:>8s}  {slip:>9s}  {turn:>9s}  {r.time_simulated:5.2f}s  "
-                    f"{r.wall_time:5.2f}s")
+                    f"{r.wall_time:5.2f}s" + (f"  {rate:.2f}" if several else ""))
     print("\n".join(rows))
     held = sum(r.success for r in rep.results)
     n = len(rep.results)
+    if several:
+        k = sum(r.success for rs in rep.trials for r in rs)
+        print(f"perturbed trials (wrist N(0, 1 mm) and N(0, 1 deg), friction U(0.4, 0.6), density U(500, 1500) "
+              f"kg/m^3; seed {args.seed}): held {k}/{n * args.trials}")
     print(f"held {held}/{n}; {time.perf_counter() - t0:.1f} s, {sum(r.wall_time for r in rep.results) / max(n, 1):.2f} s "
           f"per grasp on the CPU; wrote {rep.path}" + (f" and {rep.picture}" if rep.picture else ""))
     return 0
@@ -326,6 +366,9 @@ def _add_target_options(p, threads_help="worker threads (default 0: every core)"
     p.add_argument("--top", type=_count(1), default=10, help="grasps kept (default 10)")
     p.add_argument("--seed", type=_count(0), default=0, help="seed of the fine-tuning (default 0)")
     p.add_argument("--threads", type=_count(0), default=0, help=threads_help)
+    p.add_argument("--rank", choices=("robust", "epsilon"), default="robust",
+                   help="order of the grasps: robust (default: probability of force closure under pose and "
+                   "friction error, then its lower-quartile epsilon) or epsilon (the paper's)")
     p.add_argument("--scale", type=_positive_float, default=1.0,
                    help="scale of the target, occluder and obstacle files (0.001: mm to m)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -345,6 +388,10 @@ def build_parser() -> argparse.ArgumentParser:
     plan = sub.add_parser("plan", help="plan grasps; write OUTDIR/grasps.json and pictures of the top grasps")
     _add_plan_arguments(plan, "output folder (created; grasps.json and grasp_NN.png are replaced)")
     plan.add_argument("--pictures", type=_count(0), default=5, help="pictures of the best grasps (default 5)")
+    plan.add_argument("--verify-top", type=_count(1), metavar="K",
+                      help="simulate the K best grasps in MuJoCo (needs .[sim]) and re-rank them by how often they "
+                      "held over --trials perturbed trials")
+    plan.add_argument("--trials", type=_count(1), default=4, help="trials per verified grasp (default 4)")
     plan.set_defaults(func=_cmd_plan)
     figs = sub.add_parser("figures", help="plan, then draw the paper's Figures 7 and 8 as PNG files")
     _add_plan_arguments(figs, "output folder for fig7_<target>.png and fig8_<target>.png")
@@ -375,6 +422,10 @@ def build_parser() -> argparse.ArgumentParser:
     simu.add_argument("--target", help="target mesh (default: the one recorded in the grasps file)")
     simu.add_argument("--density", type=_positive_float, help="target density, kg/m^3 (default 1000)")
     simu.add_argument("--friction", type=_positive_float, help="friction coefficient (default 0.5)")
+    simu.add_argument("--trials", type=_count(1), default=1,
+                      help="simulations per grasp: the first as planned, the others with the wrist, friction and "
+                      "density perturbed (default 1)")
+    simu.add_argument("--seed", type=_count(0), default=0, help="seed of the perturbed trials (default 0)")
     simu.add_argument("--no-picture", action="store_true", help="do not draw simulation.png")
     simu.add_argument("--quiet", action="store_true", help="no progress bar")
     simu.set_defaults(func=_cmd_simulate)

@@ -154,12 +154,19 @@ def _grasp(d, where, hand) -> Grasp:
     fine_tuned = d.get("fine_tuned", False)
     if not isinstance(fine_tuned, bool):
         raise _Bad(f"{where}.fine_tuned: expected true or false")
+    robust = {}
+    for key in ("force_closure_probability", "robust_epsilon"):   # the robust ranking's (optional)
+        if d.get(key) is not None:
+            robust[key] = _number(d[key], f"{where}.{key}")
+            if robust[key] < 0 or (key == "force_closure_probability" and robust[key] > 1):
+                raise _Bad(f"{where}.{key}: expected a number in [0, {'1' if key[0] == 'f' else 'inf'}), got "
+                           f"{robust[key]:g}")
     return Grasp(rank=rank, wrist_pose=pose, dofs=dofs, joints=joints, epsilon=scalars["epsilon"], volume=volume,
                  force_closure=fc, alignment_quality=scalars["alignment_quality"], votes=votes,
                  penetration_depth=scalars["penetration_depth"],
                  contact_points=np.reshape(np.array(points, float), (-1, 3)),
                  contact_normals=np.reshape(np.array(normals, float), (-1, 3)), contact_links=tuple(links),
-                 sample=sample, aligned_pose=aligned, backoff=backoff, fine_tuned=fine_tuned)
+                 sample=sample, aligned_pose=aligned, backoff=backoff, fine_tuned=fine_tuned, **robust)
 
 
 def parse_grasps(doc, path: str = "<grasps>", hand=None) -> GraspsFile:

@@ -66,6 +66,13 @@ class PlanParams:
             again with every contact. None: every contact throughout (slower by ~10x on the Barrett
             hand, whose links report patches of ~100 contacts).
         mu, edges: friction coefficient and friction-pyramid edges.
+        rank: how the returned grasps are ordered. ``"robust"``: the ``top + 5`` best distinct grasps
+            by epsilon are closed and scored again at ``robust_samples`` perturbations each (wrist
+            N(0, 1 mm) per axis and N(0, 1 degree) about a random axis, friction uniform within
+            ±20% of ``mu``: :func:`pairgrasp.robust_quality`) and the ``top`` are returned by
+            probability of force closure, then the lower quartile of epsilon. ``"epsilon"``: the
+            paper's ranking (force closure, then epsilon).
+        robust_samples: perturbations per grasp of the robust ranking.
         top: grasps returned.
         seed: seed of the fine-tuning.
         threads: worker threads (0: every core).
@@ -98,6 +105,8 @@ class PlanParams:
     contacts_per_link: Optional[int] = 4
     mu: float = 0.5
     edges: int = 8
+    rank: str = "robust"
+    robust_samples: int = 8
     top: int = 10
     seed: int = 0
     threads: int = 0
@@ -106,6 +115,8 @@ class PlanParams:
         """Raises ValueError naming the first bad field."""
         if self.schedule not in ("grid", "fast"):
             raise ValueError(f"schedule: expected 'grid' or 'fast', got {self.schedule!r}")
+        if self.rank not in ("robust", "epsilon"):
+            raise ValueError(f"rank: expected 'robust' or 'epsilon', got {self.rank!r}")
         if self.constellation not in ("auto", "per_link", "area"):
             raise ValueError(f"constellation: expected 'auto', 'per_link' or 'area', got {self.constellation!r}")
         for name in ("step", "edge", "d_max", "spacing", "backoff", "depth_tolerance", "time_limit"):
@@ -122,7 +133,7 @@ class PlanParams:
             _integer("poses_per_sample", self.poses_per_sample, 1)
         for name, low in (("max_pairs", 1), ("max_area_samples", 3), ("max_poses_per_sample", 1),
                           ("coarse_factor", 1), ("refine", 0), ("refine_rounds", 0), ("chunk", 1), ("fine_tune", 0), ("fine_tune_iterations", 0),
-                          ("edges", 3), ("top", 1), ("seed", 0), ("threads", 0)):
+                          ("edges", 3), ("robust_samples", 1), ("top", 1), ("seed", 0), ("threads", 0)):
             _integer(name, getattr(self, name), low)
         if self.max_evaluations is not None:
             _integer("max_evaluations", self.max_evaluations, 1)

@@ -49,12 +49,18 @@ Stages (the keys of :attr:`PlanResult.timings`):
     on the library's thread pool; the search skips the hull volume.
 ``fine_tune`` (C++)
     The ``fine_tune`` best distinct grasps are refined by :func:`pairgrasp.fine_tune` (its trials on
-    the thread pool), and the returned grasps are scored again with every contact.
+    the thread pool), and the grasps that may be returned are scored again with every contact.
+``robust`` (C++, ``rank="robust"``)
+    The ``top + 5`` best distinct grasps by epsilon are closed and scored again at
+    ``robust_samples`` perturbations each (:func:`pairgrasp.robust_quality`: wrist N(0, 1 mm) and
+    N(0, 1 degree), friction within ±20% of ``mu``), and the ``top`` most robust are returned.
 
-Ranking: force closure first, then epsilon, then Q_A, then votes. Epsilon is the quantity users
-act on; Q_A says how well the hand's shape matched the surface before closing, and the planned
-candidates show only a weak relation between the two (Figure 8, ``docs/experiments.md``), so Q_A
-breaks ties and orders grasps that are not force-closure.
+Ranking (``rank="epsilon"``, the paper's): force closure first, then epsilon, then Q_A, then votes.
+Q_A says how well the hand's shape matched the surface before closing, and the planned candidates
+show only a weak relation between the two (Figure 8, ``docs/experiments.md``), so Q_A breaks ties
+and orders grasps that are not force-closure. The highest epsilon is often a grasp on the edge of
+where it works: ``rank="robust"`` (the default) orders the final grasps by the probability of
+force closure under pose and friction error, then the lower quartile of epsilon, then as above.
 
 Everything is deterministic for a given seed and thread count independent: alignment merges votes
 in a fixed order, candidates are processed in sample order, and the fine-tuning of the grasp of
@@ -423,8 +429,9 @@ class Planner:
         timings.update(stage_t)
 
         t = time.perf_counter()
-        grasps = self._grasps(pipe, cands, p, start)
-        timings["fine_tune"] = time.perf_counter() - t
+        grasps, robust_s = self._grasps(pipe, cands, p, start)
+        timings["fine_tune"] = time.perf_counter() - t - robust_s
+        timings["robust"] = robust_s
         counts["force_closure"] = sum(1 for c in cands if c.evaluation.force_closure)
         timings["total"] = sum(timings.values())
         records = [Candidate(sample=c.sample, alignment_quality=c.quality, votes=c.votes,
@@ -462,13 +469,15 @@ class Planner:
         poses do not depend on ``max_poses >= k``)."""
         return _core.Aligner(self.tindex.index, max_poses=max_poses, threads=self.params.threads)
 
-    def _grasps(self, pipe, cands, p, start) -> List[Grasp]:
+    def _grasps(self, pipe, cands, p, start):
         """Ranks, fine-tunes and returns the grasps (CandidatePipeline.finish), with the records of
-        the candidates they came from."""
+        the candidates they came from, and the seconds of the robust ranking."""
         time_left = None if p.time_limit is None else p.time_limit - (time.perf_counter() - start)
         grasps: List[Grasp] = []
-        for g in pipe.finish(p.top, p.fine_tune, p.fine_tune_iterations, p.seed, time_left):
-            c, ev = cands[g.candidate], g.evaluation
+        ranked, seconds = pipe.finish(p.top, p.fine_tune, p.fine_tune_iterations, p.seed, time_left,
+                                                   rank=p.rank, robust_samples=p.robust_samples)
+        for g in ranked:
+            c, ev, r = cands[g.candidate], g.evaluation, g.robust
             joints = {k: float(v) for k, v in self.hand.joint_values(np.asarray(ev.dofs), clamp=True).items()}
             grasps.append(Grasp(
                 rank=len(grasps) + 1, wrist_pose=np.array(ev.wrist_pose), dofs=np.array(ev.dofs), joints=joints,
@@ -476,5 +485,7 @@ class Planner:
                 alignment_quality=float(c.quality), votes=int(c.votes), penetration_depth=float(ev.depth),
                 contact_points=np.array(ev.contact_points), contact_normals=np.array(ev.contact_normals),
                 contact_links=tuple(ev.contact_links), sample=np.array(c.dofs), aligned_pose=np.array(c.pose),
-                backoff=float(c.backoff), fine_tuned=bool(g.fine_tuned)))
-        return grasps
+                backoff=float(c.backoff), fine_tuned=bool(g.fine_tuned),
+                force_closure_probability=None if r is None else float(r.force_closure_probability),
+                robust_epsilon=None if r is None else float(r.epsilon)))
+        return grasps, seconds["robust"]

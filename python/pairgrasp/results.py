@@ -31,6 +31,10 @@ class Grasp:
         aligned_pose: (4,4) the aligned wrist pose before settling.
         backoff: distance the wrist backed off along the approach axis (m).
         fine_tuned: the grasp is a fine-tuning trial better than the planned one.
+        force_closure_probability, robust_epsilon: the robust ranking's measures
+            (:func:`pairgrasp.robust_quality`): the fraction of perturbed closings that are
+            force-closure and the lower quartile of their epsilons; None when the plan ranked by
+            epsilon.
     """
 
     rank: int
@@ -50,10 +54,12 @@ class Grasp:
     aligned_pose: np.ndarray
     backoff: float
     fine_tuned: bool
+    force_closure_probability: Optional[float] = None
+    robust_epsilon: Optional[float] = None
 
     def to_dict(self) -> dict:
         """JSON-ready dictionary (the grasps.json schema)."""
-        return {
+        d = {
             "rank": self.rank,
             "wrist_pose": _round(self.wrist_pose),
             "dof": _round(self.dofs),
@@ -71,6 +77,10 @@ class Grasp:
             "backoff": _round(self.backoff),
             "fine_tuned": bool(self.fine_tuned),
         }
+        if self.force_closure_probability is not None:
+            d["force_closure_probability"] = _round(self.force_closure_probability)
+            d["robust_epsilon"] = _round(self.robust_epsilon)
+        return d
 
 
 @dataclass(frozen=True)

@@ -70,7 +70,8 @@ from .inertia import mass_properties
 from .params import with_overrides
 from .planner import _as_mesh
 
-__all__ = ["SimParams", "SimResult", "Simulator", "SimReport", "simulate_grasps", "import_mujoco"]
+__all__ = ["SimParams", "SimResult", "Simulator", "SimReport", "TrialNoise", "Trial", "trial_perturbations",
+           "simulate_trials", "simulate_grasps", "verify_grasps", "import_mujoco"]
 
 _G = 9.81
 
@@ -231,6 +232,87 @@ def _quat(R) -> np.ndarray:
 
 def _rotation_angle(R) -> float:
     return float(math.acos(max(-1.0, min(1.0, (np.trace(R) - 1.0) / 2.0))))
+
+
+@dataclass(frozen=True)
+class TrialNoise:
+    """The execution and model errors of perturbed trials (trial 0 is always as planned).
+
+    Attributes:
+        translation_sigma: wrist offset, normal per axis of the target frame, m (1 mm).
+        rotation_sigma: wrist rotation about a uniformly random axis through the wrist origin,
+            normal, rad (1 degree).
+        friction: friction coefficient, uniform in this interval.
+        density: target density, kg/m³, uniform in this interval.
+    """
+
+    translation_sigma: float = 0.001
+    rotation_sigma: float = math.radians(1.0)
+    friction: tuple = (0.4, 0.6)
+    density: tuple = (500.0, 1500.0)
+
+    def validate(self) -> None:
+        """Raises ValueError naming the first bad field."""
+        for name in ("translation_sigma", "rotation_sigma"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+                raise ValueError(f"{name}: expected a finite number >= 0, got {v!r}")
+        for name, low in (("friction", 0.0), ("density", 1e-9)):
+            v = getattr(self, name)
+            ok = isinstance(v, (tuple, list)) and len(v) == 2 and all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v)
+            if not ok or not low <= v[0] <= v[1]:
+                raise ValueError(f"{name}: expected an interval (low, high) with {low:g} <= low <= high, got {v!r}")
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One trial's perturbation: ``offset`` (4x4) is applied to the planned wrist pose in the target
+    frame (:meth:`apply`); ``friction`` and ``density`` are None for trial 0 (the simulator's own)."""
+
+    index: int
+    offset: np.ndarray
+    friction: Optional[float]
+    density: Optional[float]
+
+    def apply(self, wrist_pose) -> np.ndarray:
+        """The perturbed wrist pose: rotated by the offset's rotation about the wrist origin, then
+        moved by its translation (both in the target frame)."""
+        T = np.asarray(wrist_pose, float)
+        P = T.copy()
+        P[:3, :3] = self.offset[:3, :3] @ T[:3, :3]
+        P[:3, 3] = T[:3, 3] + self.offset[:3, 3]
+        return P
+
+    def to_dict(self) -> dict:
+        angle = _rotation_angle(self.offset[:3, :3])
+        return {"wrist_offset": [round(float(x), 9) for x in self.offset[:3, 3]],
+                "wrist_rotation": round(angle, 9), "friction": self.friction, "density": self.density}
+
+
+def trial_perturbations(n: int, seed: int = 0, noise: Optional[TrialNoise] = None) -> List[Trial]:
+    """The perturbations of ``n`` trials: trial 0 as planned, trial k >= 1 drawn from
+    ``numpy.random.default_rng([seed, k])`` with the :class:`TrialNoise` model. Trial k's
+    perturbation depends only on (seed, k), so every grasp simulated with a seed meets the same
+    errors (a paired comparison of grasps and rankings)."""
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise ValueError(f"trials: expected an integer >= 1, got {n!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed: expected an integer >= 0, got {seed!r}")
+    noise = noise or TrialNoise()
+    noise.validate()
+    out = [Trial(0, np.eye(4), None, None)]
+    for k in range(1, int(n)):
+        rng = np.random.default_rng([int(seed), k])
+        axis = rng.normal(size=3)
+        axis /= max(np.linalg.norm(axis), 1e-12)
+        angle = rng.normal(0.0, noise.rotation_sigma)
+        K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+        D = np.eye(4)
+        D[:3, :3] = np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+        D[:3, 3] = rng.normal(0.0, noise.translation_sigma, size=3)
+        out.append(Trial(k, D, float(rng.uniform(*noise.friction)), float(rng.uniform(*noise.density))))
+    return out
 
 
 def _slerp_dir(a, b, s) -> np.ndarray:
@@ -635,10 +717,25 @@ def _hull_mass_properties(vertices, density):
     return mass_properties((V, F), density)
 
 
+def simulate_trials(sim: "Simulator", wrist_pose, dofs, trials: Sequence[Trial]) -> List[SimResult]:
+    """Simulates one grasp once per trial (:func:`trial_perturbations`): the wrist pose perturbed by
+    the trial's offset, with its friction and density."""
+    return [sim.simulate(t.apply(wrist_pose), dofs, friction=t.friction, density=t.density) for t in trials]
+
+
+def _trials_record(trials: Sequence[Trial], results: Sequence[SimResult]) -> dict:
+    """A grasp's ``simulation`` object: trial 0's outcome, every trial and the success rate."""
+    rec = results[0].to_dict()
+    rec["trials"] = [{**r.to_dict(), **t.to_dict()} for t, r in zip(trials, results)]
+    rec["success_rate"] = round(sum(r.success for r in results) / len(results), 9)
+    return rec
+
+
 @dataclass
 class SimReport:
-    """What :func:`simulate_grasps` returns: the results of the simulated grasps (file order), their
-    ranks and epsilons, the simulator's scene counts and the path written."""
+    """What :func:`simulate_grasps` returns: the results of the simulated grasps (file order; trial
+    0, as planned), every trial's (``trials[i][k]``), their ranks and epsilons, the simulator's
+    scene counts and the path written."""
 
     results: List[SimResult]
     ranks: List[int]
@@ -647,14 +744,23 @@ class SimReport:
     params: SimParams
     path: str
     picture: Optional[str]
+    trials: List[List[SimResult]]
+
+    @property
+    def success_rates(self) -> List[float]:
+        """Per grasp, the fraction of its trials that held."""
+        return [sum(r.success for r in rs) / len(rs) for rs in self.trials]
 
 
 def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, params: Optional[SimParams] = None,
-                    picture: bool = True, progress=None, **overrides) -> SimReport:
-    """Simulates the first ``top`` grasps of a grasps.json file and writes each outcome into it, as
-    ``grasps[i].simulation`` (:meth:`SimResult.to_dict`) with the parameters under the top-level
-    ``simulation`` key, and a picture of epsilon against the outcome beside it
-    (``simulation.png``).
+                    picture: bool = True, progress=None, trials: int = 1, seed: int = 0,
+                    noise: Optional[TrialNoise] = None, **overrides) -> SimReport:
+    """Simulates the first ``top`` grasps of a grasps.json file ``trials`` times each (trial 0 as
+    planned, the others perturbed: :func:`trial_perturbations` with ``seed`` and ``noise``) and
+    writes each outcome into it, as ``grasps[i].simulation`` (trial 0's :meth:`SimResult.to_dict`,
+    plus ``trials``: every trial's outcome with its perturbation, and ``success_rate``), with the
+    parameters under the top-level ``simulation`` key, and a picture of epsilon against the outcome
+    as planned beside it (``simulation.png``).
 
     The hand, target, obstacles and occluders are those recorded in the file's ``inputs`` (paths
     relative to the current folder or to the file's folder), unless ``hand`` / ``target`` are given.
@@ -662,7 +768,8 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
 
     Raises:
         pairgrasp.FileError: a missing or malformed grasps file, or a recorded input that is missing.
-        ValueError: ``top`` < 1, a hand other than the one the grasps were planned for, bad parameters.
+        ValueError: ``top`` or ``trials`` < 1, a hand other than the one the grasps were planned for,
+            bad parameters.
         ImportError: MuJoCo is not installed.
     """
     from .grasps_file import _load_planned, _resolve, write_grasps
@@ -671,6 +778,7 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
     path = os.fspath(path)
     if top is not None and (isinstance(top, bool) or not isinstance(top, int) or top < 1):
         raise ValueError(f"top: expected an integer >= 1, got {top!r}")
+    perturbations = trial_perturbations(trials, seed, noise)
     planned = _load_planned(path, hand, target)
     gf, hand, target, scale, base = planned.grasps, planned.hand, planned.target, planned.scale, planned.base
     inputs = gf.inputs
@@ -680,16 +788,18 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
             others.append(_core.load_mesh(_resolve(o, base, f"{path}: inputs.{key}[{k}]"), scale=scale))
     grasps = gf.grasps if top is None else gf.grasps[:top]
     sim = Simulator(hand, target, others, params=params, **overrides)
-    results = []
+    per_grasp = []
     for k, g in enumerate(grasps):
-        results.append(sim.simulate(g.wrist_pose, g.dofs))
+        per_grasp.append(simulate_trials(sim, g.wrist_pose, g.dofs, perturbations))
         if progress:
-            progress(k + 1, len(grasps), results[-1])
+            progress(k + 1, len(grasps), per_grasp[-1][0])
+    results = [rs[0] for rs in per_grasp]
     doc = gf.document
-    for g, r in zip(doc["grasps"], results):
-        g["simulation"] = r.to_dict()
+    for g, rs in zip(doc["grasps"], per_grasp):
+        g["simulation"] = _trials_record(perturbations, rs)
     doc["simulation"] = {"engine": f"mujoco {import_mujoco().__version__}", "parameters": asdict(sim.params),
                          "target_mass": round(sim.target_mass, 9), "simulated": len(results),
+                         "trials": len(perturbations), "seed": int(seed), "noise": asdict(noise or TrialNoise()),
                          "scene": {k: v for k, v in sim.counts.items()}}
     out_png = None
     tmp_png = None
@@ -708,4 +818,34 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
         if tmp_png and os.path.exists(tmp_png):
             os.remove(tmp_png)
     return SimReport(results=results, ranks=[g.rank for g in grasps], epsilons=[g.epsilon for g in grasps],
-                     counts=sim.counts, params=sim.params, path=path, picture=out_png)
+                     counts=sim.counts, params=sim.params, path=path, picture=out_png, trials=per_grasp)
+
+
+def verify_grasps(path, top: int, trials: int = 4, seed: int = 0, progress=None, **kwargs) -> List[int]:
+    """Simulation in the loop: simulates the first ``top`` grasps of a grasps.json file
+    (:func:`simulate_grasps` with ``trials`` and ``seed``; ``kwargs`` go to it) and re-ranks them by
+    their success rate (ties keep the planned order; the grasps after ``top`` keep theirs). Each
+    grasp keeps its planned rank as ``planned_rank`` and the document records ``verification``:
+    ``{"top", "trials", "seed", "planned_ranks"}`` (the planned ranks in the new order). Returns
+    the planned ranks in the new order.
+
+    Raises what :func:`simulate_grasps` raises.
+    """
+    from .grasps_file import load_grasps, write_grasps
+
+    rep = simulate_grasps(path, top=top, trials=trials, seed=seed, progress=progress, picture=False, **kwargs)
+    doc = load_grasps(path).document
+    items = doc["grasps"]
+    head = sorted(range(len(rep.trials)), key=lambda i: -rep.success_rates[i])   # stable: ties in planned order
+    order = head + list(range(len(rep.trials), len(items)))
+    reranked = []
+    for new_rank, i in enumerate(order, start=1):
+        g = dict(items[i])
+        g["planned_rank"] = g["rank"]
+        g["rank"] = new_rank
+        reranked.append(g)
+    doc["grasps"] = reranked
+    doc["verification"] = {"top": len(head), "trials": int(trials), "seed": int(seed),
+                           "planned_ranks": [g["planned_rank"] for g in reranked[:len(head)]]}
+    write_grasps(path, doc)
+    return [g["planned_rank"] for g in reranked]

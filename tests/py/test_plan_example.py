@@ -44,6 +44,8 @@ def test_cpp_plan_samples_equals_the_python_planner(grid_plan):
         assert np.array_equal(g.evaluation.wrist_pose, p.wrist_pose)
         assert np.array_equal(g.evaluation.dofs, p.dofs)
         assert g.epsilon == p.epsilon and g.force_closure == p.force_closure
+        assert g.robust.force_closure_probability == p.force_closure_probability    # the same robust ranking
+        assert g.robust.epsilon == p.robust_epsilon
 
 
 def _example_output():
@@ -62,12 +64,13 @@ def test_the_cpp_program_writes_the_python_planners_grasps(grid_plan, tmp_path):
     doc = json.loads(path.read_text())
     assert doc["format"] == "pairgrasp.grasps/1" and doc["parameters"]["schedule"] == "grid"
     assert doc["parameters"]["step"] == 0.5 and doc["counts"]["samples"] == result.counts["samples"]
+    assert doc["parameters"]["rank"] == "robust" and doc["parameters"]["robust_samples"] == 8
     assert doc["counts"]["force_closure"] == result.counts["force_closure"]
     assert len(doc["grasps"]) == len(result.grasps) == 5
     for d, g in zip(doc["grasps"], result.grasps):
         want = g.to_dict()
         for key in ("wrist_pose", "dof", "epsilon", "volume", "alignment_quality", "penetration_depth", "sample",
-                    "aligned_pose", "backoff"):
+                    "aligned_pose", "backoff", "force_closure_probability", "robust_epsilon"):
             np.testing.assert_allclose(d[key], want[key], rtol=0, atol=1e-9, err_msg=key)
         assert (d["force_closure"], d["votes"], d["fine_tuned"]) == (want["force_closure"], want["votes"],
                                                                     want["fine_tuned"])

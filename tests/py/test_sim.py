@@ -385,3 +385,54 @@ def test_cli_simulate_without_mujoco(tmp_path):
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert "pip install .[sim]" in _error(r)
     assert "simulation" not in path.read_text()
+
+
+# ----- perturbed trials and simulation in the loop -----
+
+@pytest.mark.slow
+def test_perturbed_trials_and_verification_rerank_by_outcome(tmp_path):
+    # Rank 1 closes on air (dropped whatever the errors); rank 2 is the antipodal grasp, which holds
+    # under every trial's errors: 1 mm and 1 degree move the pads within the 60 mm faces, and the
+    # heaviest box (1500 kg/m^3: 0.65 kg, 9.6 N under 14.81 m/s^2) stays below what the least friction
+    # holds (2 * 0.4 * 25 N = 20 N).
+    doc = grasps_doc()
+    doc["grasps"] = [dict(doc["grasps"][1], rank=1), dict(doc["grasps"][0], rank=2)]
+    path = tmp_path / "grasps.json"
+    path.write_text(json.dumps(doc))
+    r = run_cli("simulate", path, "--trials", "3", "--seed", "2", "--no-picture")
+    assert r.returncode == 0, r.stderr
+    assert "held 3/6" in r.stdout
+    sims = [g["simulation"] for g in json.loads(path.read_text())["grasps"]]
+    assert [s["success_rate"] for s in sims] == [0.0, 1.0]
+    for s in sims:
+        assert len(s["trials"]) == 3 and s["outcome"] == s["trials"][0]["outcome"]
+        assert s["trials"][0]["friction"] is None and s["trials"][0]["wrist_offset"] == [0.0, 0.0, 0.0]
+        for t in s["trials"][1:]:
+            assert 0.4 <= t["friction"] <= 0.6 and 500 <= t["density"] <= 1500
+            assert 0 < np.linalg.norm(t["wrist_offset"]) < 0.006 and 0 < t["wrist_rotation"] < math.radians(5)
+    assert all(t["outcome"] == "dropped" for t in sims[0]["trials"])
+    # simulation in the loop: the grasp that held comes first, with its planned rank
+    assert pg.verify_grasps(path, top=2, trials=2, seed=2) == [2, 1]
+    out = json.loads(path.read_text())
+    assert [(g["rank"], g["planned_rank"]) for g in out["grasps"]] == [(1, 2), (2, 1)]
+    assert out["verification"] == {"top": 2, "trials": 2, "seed": 2, "planned_ranks": [2, 1]}
+    assert pg.load_grasps(path).grasps[0].epsilon == 0.1
+
+
+@pytest.mark.slow
+def test_plan_verify_top_simulates_and_reranks(tmp_path):
+    out = tmp_path / "plan"
+    r = run_cli("plan", "--hand", JAW, "--target", BOX, "--paint", MODELS / "targets" / "box.paint.json", "--edge",
+                "0.008", "--top", "3", "--seed", "1", "--pictures", "1", "--verify-top", "2", "--trials", "2",
+                "--quiet", "-o", out)
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((out / "grasps.json").read_text())
+    g = doc["grasps"]
+    assert [x["rank"] for x in g] == list(range(1, len(g) + 1))
+    assert doc["verification"]["top"] == 2 and doc["verification"]["trials"] == 2
+    assert sorted(x["planned_rank"] for x in g[:2]) == [1, 2]
+    rates = [x["simulation"]["success_rate"] for x in g[:2]]
+    assert rates == sorted(rates, reverse=True) and all(len(x["simulation"]["trials"]) == 2 for x in g[:2])
+    assert all("simulation" not in x for x in g[2:])
+    assert doc["inputs"]["hand_spec"] == str(JAW) and doc["pictures"] == ["grasp_01.png"]
+    assert "held" in r.stdout.splitlines()[1]

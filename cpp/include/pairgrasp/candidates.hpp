@@ -20,13 +20,15 @@
 ///    (PipelineOptions::hull_rank).
 ///
 /// finish() then ranks the evaluated candidates (unpruned, force closure, epsilon, alignment
-/// quality, votes), fine-tunes the best (fine_tune() with seed + rank), drops near-duplicates and
-/// scores the returned grasps again with every contact.
+/// quality, votes), fine-tunes the best (fine_tune() with seed + rank), drops near-duplicates,
+/// scores the grasps that may be returned again with every contact and, with the robust ranking
+/// (the default), ranks them by robust_quality() (robust.hpp).
 ///
 /// Results do not depend on the thread count: candidates are independent, and everything that
 /// combines them runs in input order. Lengths are metres, angles radians.
 #include <pairgrasp/collision.hpp>
 #include <pairgrasp/evaluation.hpp>
+#include <pairgrasp/robust.hpp>
 #include <pairgrasp/types.hpp>
 
 #include <chrono>
@@ -34,6 +36,7 @@
 #include <memory>
 #include <optional>
 #include <set>
+#include <string>
 #include <vector>
 
 namespace pairgrasp {
@@ -106,7 +109,22 @@ struct RankedGrasp {
   bool fine_tuned = false;       ///< a fine-tuning trial strictly better than the candidate
   /// Quality from every contact (the evaluation's may come from reduced contacts).
   GraspQuality quality;
+  /// Force closure and epsilon under perturbations (Ranking::Robust only).
+  std::optional<RobustQuality> robust;
 };
+
+/// How finish() orders the grasps.
+enum class Ranking {
+  /// By robust_quality(): probability of force closure, then the robust epsilon, then as Epsilon.
+  Robust,
+  /// The paper's: force closure, then epsilon from every contact, then alignment quality, then votes.
+  Epsilon,
+};
+
+/// "robust" or "epsilon".
+const char* to_string(Ranking ranking);
+/// The Ranking named "robust" or "epsilon"; std::invalid_argument ("rank: ...") otherwise.
+Ranking ranking_from_string(const std::string& name);
 
 /// Options of CandidatePipeline::finish().
 struct FinishOptions {
@@ -117,6 +135,19 @@ struct FinishOptions {
   double angle = 0.05235987755982989;  ///< largest fine-tuning rotation (rad), 3 degrees
   /// No fine-tuning trial starts after this time point (an anytime plan); unset: no limit.
   std::optional<std::chrono::steady_clock::time_point> deadline;
+  Ranking rank = Ranking::Robust;  ///< how the returned grasps are ordered
+  /// Ranking::Robust: the `top + robust_extra` best distinct grasps by epsilon are scored by
+  /// robust_quality() (with RobustOptions::samples, translation_sigma, rotation_sigma,
+  /// friction_spread and quantile from `robust`; the pipeline's scoring and threads; the seed
+  /// seed + 0x9E3779B97F4A7C15 (candidate + 1)) and the `top` most robust returned.
+  RobustOptions robust;
+  int robust_extra = 5;
+};
+
+/// Seconds spent in the parts of finish().
+struct FinishTimings {
+  double fine_tune = 0.0;  ///< ranking, fine-tuning, deduplication and the scoring with every contact
+  double robust = 0.0;     ///< robust_quality() of the grasps that may be returned
 };
 
 /// Settles, deduplicates and evaluates candidates chunk by chunk, then ranks and fine-tunes.
@@ -134,9 +165,9 @@ class CandidatePipeline {
   const std::vector<EvaluatedCandidate>& evaluated() const { return evaluated_; }
 
   /// Ranks the evaluated candidates, fine-tunes the best, drops near-duplicates and returns at most
-  /// `top` grasps, best first (force closure, then epsilon from every contact, then alignment
-  /// quality, then votes).
-  std::vector<RankedGrasp> finish(const FinishOptions& options) const;
+  /// `top` grasps, best first (FinishOptions::rank). `timings`, when given, receives the seconds
+  /// of its parts.
+  std::vector<RankedGrasp> finish(const FinishOptions& options, FinishTimings* timings = nullptr) const;
 
   const PipelineOptions& options() const { return options_; }
   /// Links that no closing DOF moves (Hand::links() order): the palm group that backing off clears.
@@ -146,6 +177,8 @@ class CandidatePipeline {
 
  private:
   GraspQuality score_reduced(const Contacts& contacts, double threshold) const;
+  void score_robust(std::vector<RankedGrasp>& grasps, const FinishOptions& options) const;
+
   const GraspChecker& checker_;
   PipelineOptions options_;
   TorqueReference reference_;

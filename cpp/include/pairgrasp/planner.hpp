@@ -139,6 +139,8 @@ struct PlanOptions {
   /// PipelineOptions::hull_rank: only candidates that can reach this many best epsilons pay for
   /// the full hull (< 0: max(top, fine_tune); 0: every candidate).
   int hull_rank = -1;
+  Ranking rank = Ranking::Robust;  ///< FinishOptions::rank
+  int robust_samples = 8;          ///< RobustOptions::samples of the robust ranking
 };
 
 /// What plan_samples() returns.
@@ -146,7 +148,7 @@ struct PlanReport {
   std::vector<RankedGrasp> grasps;               ///< best first
   std::vector<EvaluatedCandidate> candidates;    ///< every evaluated candidate, in evaluation order
   std::map<std::string, long> counts;            ///< samples, aligned_poses, settled, settled_aligned, evaluated, force_closure
-  std::map<std::string, double> timings;         ///< seconds: align, settle, evaluate, fine_tune
+  std::map<std::string, double> timings;         ///< seconds: align, settle, evaluate, fine_tune, robust
 };
 
 /// Runs `samples` (DOF vectors within the limits) through alignment, the candidate pipeline and the

@@ -1,0 +1,210 @@
+"""The robust ranking and the perturbed trials: robust_quality against the nominal evaluation (no
+noise, friction alone), the candidate pipeline's two rankings on hand-built grasps (a grasp hooked
+over a box's edge has the higher epsilon, a centred one survives the errors), the trials' noise model
+against its distribution, and grasps.json's optional robust fields."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+import pairgrasp as pg
+
+from test_collision import BARRETT, JAW, box_mesh
+
+# A box 50 mm (x) by 40 mm (y) by 60 mm (z) centred at the origin, gripped across x by the jaw from
+# above. The pads are 20 mm wide in y and cover z = -0.025..+0.025 with the wrist at z = 0.095
+# (pads 0.070-0.120 along the approach: models/README.md).
+SIZE = (0.05, 0.04, 0.06)
+WRIST_Z = 0.095
+OPEN = 0.08
+
+
+DOWN = np.diag([1.0, -1.0, -1.0])    # the jaw's approach +z turned to -z
+
+
+@pytest.fixture(scope="module")
+def jaw_checker():
+    half = np.array(SIZE) / 2
+    return pg.GraspChecker(pg.load_hand(str(JAW)), box_mesh(-half, half))
+
+
+def jaw_pose(y=0.0):
+    T = np.eye(4)
+    T[:3, :3] = DOWN
+    T[:3, 3] = [0.0, y, WRIST_Z]
+    return T
+
+
+def test_zero_noise_repeats_the_nominal_evaluation(jaw_checker):
+    e = pg.evaluate_grasp(jaw_checker, jaw_pose(), [OPEN])
+    assert e.force_closure and e.epsilon > 0
+    r = pg.robust_quality(jaw_checker, jaw_pose(), [OPEN], samples=5, translation_sigma=0.0, rotation_sigma_deg=0.0,
+                          friction_spread=0.0)
+    assert r.samples == 5 and r.pruned == 0
+    assert r.force_closure_probability == 1.0
+    assert r.epsilons == pytest.approx([e.epsilon] * 5, abs=1e-12)
+    assert r.epsilon == pytest.approx(e.epsilon, abs=1e-12)
+
+
+def test_friction_alone_moves_epsilon_both_ways(jaw_checker):
+    # Friction uniform in [0.4, 0.6] around mu 0.5: the samples' epsilons straddle the nominal one
+    # (epsilon grows with mu), and the lower quartile lies below it.
+    nominal = pg.evaluate_grasp(jaw_checker, jaw_pose(), [OPEN]).epsilon
+    r = pg.robust_quality(jaw_checker, jaw_pose(), [OPEN], samples=8, translation_sigma=0.0, rotation_sigma_deg=0.0,
+                          seed=3)
+    assert min(r.epsilons) < nominal < max(r.epsilons)
+    assert r.epsilon < nominal and r.force_closure_probability == 1.0
+    for mu in (0.4, 0.6):
+        e = pg.evaluate_grasp(jaw_checker, jaw_pose(), [OPEN], mu=mu).epsilon
+        assert (min(r.epsilons) >= e - 1e-12) if mu == 0.4 else (max(r.epsilons) <= e + 1e-12)
+
+
+def test_results_do_not_depend_on_the_threads(jaw_checker):
+    a = pg.robust_quality(jaw_checker, jaw_pose(0.015), [OPEN], samples=8, seed=7, threads=1)
+    b = pg.robust_quality(jaw_checker, jaw_pose(0.015), [OPEN], samples=8, seed=7, threads=2)
+    c = pg.robust_quality(jaw_checker, jaw_pose(0.015), [OPEN], samples=8, seed=8, threads=2)
+    assert a.epsilons == b.epsilons and a.force_closure_probability == b.force_closure_probability
+    assert a.epsilons != c.epsilons
+
+
+def test_robust_quality_bad_options(jaw_checker):
+    for kw, field in ((dict(samples=0), "samples"), (dict(translation_sigma=-1.0), "translation_sigma"),
+                      (dict(friction_spread=1.5), "friction_spread"), (dict(quantile=2.0), "quantile"),
+                      (dict(rotation_sigma_deg=float("nan")), "rotation_sigma")):
+        with pytest.raises(ValueError, match=field):
+            pg.robust_quality(jaw_checker, jaw_pose(), [OPEN], **kw)
+    with pytest.raises(ValueError, match="dofs"):
+        pg.robust_quality(jaw_checker, jaw_pose(), [OPEN, 0.0])
+
+
+# The Barrett hand (models/README.md) at spread 0 on a 60 x 60 x 50 mm box, z in [0.10, 0.15] of the
+# wrist frame: fingers 1 and 2 close on the face y = +0.03, finger 3 on y = -0.03. With the wrist at
+# the origin the proximal links grip the sides around the box's middle (CENTRED). With the wrist
+# 26 mm lower only the fingertips reach the box, hooked over its top edges (EDGE): contacts on the
+# side faces just below the edge, far from the centre of mass, so a larger torque arm and the
+# higher nominal epsilon; a millimetre or a degree of error slides them over the edge or into it.
+CENTRED, EDGE = 0.0, -0.026
+
+
+@pytest.fixture(scope="module")
+def barrett_checker():
+    return pg.GraspChecker(pg.load_hand(str(BARRETT)), box_mesh((-0.03, -0.03, 0.10), (0.03, 0.03, 0.15)))
+
+
+def barrett_pose(z):
+    T = np.eye(4)
+    T[2, 3] = z
+    return T
+
+
+def test_robust_ranking_prefers_the_centred_grasp_over_the_edge_grasp_of_higher_epsilon(barrett_checker):
+    pipe = pg.CandidatePipeline(barrett_checker, edge=0.005, backoff=0.0, contacts_per_link=4)
+    pipe.process(np.array([barrett_pose(CENTRED), barrett_pose(EDGE)]), np.zeros((2, 4)), [0, 1], [1.0, 1.0], [1, 1])
+    by_eps, _ = pipe.finish(2, 0, 0, 0, rank="epsilon")
+    robust, seconds = pipe.finish(2, 0, 0, 0, rank="robust", robust_samples=8)
+    zs = lambda gs: [round(float(g.evaluation.wrist_pose[2, 3]), 4) for g in gs]   # noqa: E731
+    assert all(g.force_closure for g in by_eps)
+    assert zs(by_eps) == [EDGE, CENTRED] and by_eps[0].epsilon > by_eps[1].epsilon
+    assert all(g.robust is None for g in by_eps)
+    assert zs(robust) == [CENTRED, EDGE]
+    centred, edge = robust[0].robust, robust[1].robust
+    assert centred.force_closure_probability == 1.0 and centred.pruned == 0
+    assert edge.force_closure_probability < 0.75 and edge.pruned > 0       # hooked over the edge, or into it
+    assert centred.epsilon > edge.epsilon
+    assert seconds["robust"] > 0
+    with pytest.raises(ValueError, match="rank"):
+        pipe.finish(2, 0, 0, 0, rank="votes")
+
+
+# ----- the trials' noise model -----
+
+def test_trial_perturbations_follow_the_noise_model():
+    trials = pg.trial_perturbations(1500, seed=4)
+    assert trials[0].friction is None and trials[0].density is None and np.array_equal(trials[0].offset, np.eye(4))
+    D = np.array([t.offset for t in trials[1:]])
+    assert np.allclose(np.einsum("kij,kil->kjl", D[:, :3, :3], D[:, :3, :3]), np.eye(3), atol=1e-12)
+    t = D[:, :3, 3]
+    assert np.abs(t.mean(axis=0)).max() < 1e-4 and np.allclose(t.std(axis=0), 0.001, rtol=0.08)
+    angles = np.array([math.acos(np.clip((np.trace(R) - 1) / 2, -1, 1)) for R in D[:, :3, :3]])
+    assert math.sqrt((angles ** 2).mean()) == pytest.approx(math.radians(1.0), rel=0.08)   # |N(0, 1 deg)|
+    mu = np.array([x.friction for x in trials[1:]])
+    rho = np.array([x.density for x in trials[1:]])
+    assert 0.4 <= mu.min() and mu.max() <= 0.6 and abs(mu.mean() - 0.5) < 0.01
+    assert 500 <= rho.min() and rho.max() <= 1500 and abs(rho.mean() - 1000) < 25
+    # trial k depends on (seed, k) only: fewer trials are a prefix, another seed differs
+    few = pg.trial_perturbations(3, seed=4)
+    assert all(np.array_equal(a.offset, b.offset) and a.friction == b.friction for a, b in zip(few, trials))
+    assert pg.trial_perturbations(3, seed=5)[1].friction != few[1].friction
+    # apply: rotation about the wrist origin, then the offset
+    T = jaw_pose(0.01)
+    P = trials[1].apply(T)
+    assert np.allclose(P[:3, 3], T[:3, 3] + trials[1].offset[:3, 3])
+    assert np.allclose(P[:3, :3], trials[1].offset[:3, :3] @ T[:3, :3])
+
+
+def test_trial_perturbations_bad_input():
+    with pytest.raises(ValueError, match="trials"):
+        pg.trial_perturbations(0)
+    with pytest.raises(ValueError, match="seed"):
+        pg.trial_perturbations(2, seed=-1)
+    with pytest.raises(ValueError, match="friction"):
+        pg.trial_perturbations(2, noise=pg.TrialNoise(friction=(0.6, 0.4)))
+    with pytest.raises(ValueError, match="translation_sigma"):
+        pg.trial_perturbations(2, noise=pg.TrialNoise(translation_sigma=-1.0))
+
+
+# ----- parameters and grasps.json -----
+
+def test_plan_params_rank():
+    pg.PlanParams(rank="epsilon").validate()
+    with pytest.raises(ValueError, match="rank"):
+        pg.PlanParams(rank="votes").validate()
+    with pytest.raises(ValueError, match="robust_samples"):
+        pg.PlanParams(robust_samples=0).validate()
+
+
+def _doc(**extra):
+    g = {"rank": 1, "wrist_pose": np.eye(4).tolist(), "dof": [0.05], "joints": {}, "epsilon": 0.1,
+         "force_closure": True, "alignment_quality": 1.0, "votes": 3, "penetration_depth": 0.0, "contacts": [],
+         **extra}
+    return {"format": pg.GRASPS_FORMAT, "grasps": [g]}
+
+
+def test_grasps_file_robust_fields_are_optional_and_checked():
+    old = pg.parse_grasps(_doc()).grasps[0]
+    assert old.force_closure_probability is None and old.robust_epsilon is None
+    assert "force_closure_probability" not in old.to_dict()
+    g = pg.parse_grasps(_doc(force_closure_probability=0.75, robust_epsilon=0.05)).grasps[0]
+    assert (g.force_closure_probability, g.robust_epsilon) == (0.75, 0.05)
+    again = pg.parse_grasps(json.loads(json.dumps({"format": pg.GRASPS_FORMAT, "grasps": [g.to_dict()]}))).grasps[0]
+    assert (again.force_closure_probability, again.robust_epsilon) == (0.75, 0.05)
+    for bad in (dict(force_closure_probability=1.5), dict(force_closure_probability="x"), dict(robust_epsilon=-1)):
+        with pytest.raises(pg.FileError, match="grasps\\[0\\]\\.(force_closure_probability|robust_epsilon)"):
+            pg.parse_grasps(_doc(**bad))
+
+
+# ----- the planner -----
+
+def test_plans_are_ranked_by_robustness(barrett_flask):
+    planner, result = barrett_flask
+    keys = [(g.force_closure_probability, g.robust_epsilon) for g in result.grasps]
+    assert all(0.0 <= p <= 1.0 and e >= 0.0 for p, e in keys)
+    assert keys == sorted(keys, reverse=True)
+    assert result.timings["robust"] > 0
+    doc = result.to_dict()
+    assert doc["parameters"]["rank"] == "robust" and doc["parameters"]["robust_samples"] == 8
+    assert all("force_closure_probability" in g and "robust_epsilon" in g for g in doc["grasps"])
+
+
+@pytest.mark.slow
+def test_the_robust_ranking_picks_from_the_epsilon_rankings_best(barrett_flask):
+    planner, robust = barrett_flask
+    by_eps = planner.plan(rank="epsilon", top=len(robust.grasps) + 5, progress=False)
+    keys = [(g.force_closure, g.epsilon) for g in by_eps.grasps]
+    assert keys == sorted(keys, reverse=True)
+    assert all(g.force_closure_probability is None for g in by_eps.grasps)
+    assert "force_closure_probability" not in by_eps.to_dict()["grasps"][0]
+    pool = [g.wrist_pose for g in by_eps.grasps]
+    for g in robust.grasps:    # the robust top 5 are the 5 most robust of the epsilon ranking's top 10
+        assert any(np.array_equal(g.wrist_pose, p) for p in pool)
