@@ -561,6 +561,18 @@ void bind_planning(pyb::module_& m) {
           "samples"_a, "Aligns each sample (K, D): a list of K lists of AlignedPose, best first.");
 
   m.def(
+      "hull_rank_for",
+      [](int top, int fine_tune, const std::string& rank) {
+        FinishOptions o;
+        o.top = top;
+        o.fine_tune = fine_tune;
+        o.rank = ranking_from_string(rank);
+        return hull_rank_for(o);
+      },
+      "top"_a, "fine_tune"_a, "rank"_a,
+      "The CandidatePipeline hull_rank under which every grasp finish() can pick has its exact epsilon.");
+
+  m.def(
       "_dof_axes",
       [](const pyb::object& lower, const pyb::object& upper, const pyb::object& step) {
         return dof_axes(vector_from(lower, "lower"), vector_from(upper, "upper"), vector_from(step, "step"));

@@ -339,6 +339,10 @@ ChunkReport CandidatePipeline::process(const std::vector<Candidate>& candidates)
   return report;
 }
 
+int hull_rank_for(const FinishOptions& options) {
+  return std::max(options.top + (options.rank == Ranking::Robust ? options.robust_extra : 0), options.fine_tune);
+}
+
 GraspQuality CandidatePipeline::score_reduced(const Contacts& k, double threshold) const {
   QualityOptions qo = options_.evaluate.quality;
   qo.open_volume = false;

@@ -285,7 +285,14 @@ PlanReport plan_samples(const GraspPlanner& planner, const std::vector<Eigen::Ve
   po.evaluate.reference = planner.reference();
   po.evaluate.contacts_per_link = o.contacts_per_link;
   po.max_evaluations = o.max_evaluations;
-  po.hull_rank = o.hull_rank >= 0 ? o.hull_rank : std::max(o.top, o.fine_tune);
+  FinishOptions fo;
+  fo.top = o.top;
+  fo.fine_tune = o.fine_tune;
+  fo.fine_tune_iterations = o.fine_tune_iterations;
+  fo.seed = o.seed;
+  fo.rank = o.rank;
+  fo.robust.samples = o.robust_samples;
+  po.hull_rank = o.hull_rank >= 0 ? o.hull_rank : hull_rank_for(fo);
   po.threads = planner.options().threads;
   CandidatePipeline pipe(planner.checker(), po);
 
@@ -325,13 +332,6 @@ PlanReport plan_samples(const GraspPlanner& planner, const std::vector<Eigen::Ve
     report.timings["evaluate"] += r.evaluate_seconds;
   }
   const auto t0 = Clock::now();
-  FinishOptions fo;
-  fo.top = o.top;
-  fo.fine_tune = o.fine_tune;
-  fo.fine_tune_iterations = o.fine_tune_iterations;
-  fo.seed = o.seed;
-  fo.rank = o.rank;
-  fo.robust.samples = o.robust_samples;
   FinishTimings ft;
   report.grasps = pipe.finish(fo, &ft);
   report.timings["fine_tune"] = seconds_since(t0) - ft.robust;

@@ -301,7 +301,7 @@ class Planner:
             self.checker, edge=self.edge, backoff=self.backoff, steps=steps, center=self.center, radius=self.radius,
             mu=p.mu, edges=p.edges, contacts_per_link=p.contacts_per_link,
             max_evaluations=-1 if p.max_evaluations is None else p.max_evaluations,
-            hull_rank=max(p.top, p.fine_tune) if p.contacts_per_link else 0, threads=p.threads)
+            hull_rank=_core.hull_rank_for(p.top, p.fine_tune, p.rank) if p.contacts_per_link else 0, threads=p.threads)
 
         best_fraction = [None]
 

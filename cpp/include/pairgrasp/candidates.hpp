@@ -144,6 +144,11 @@ struct FinishOptions {
   int robust_extra = 5;
 };
 
+/// The PipelineOptions::hull_rank under which every candidate finish() can pick (fine-tunes, or
+/// scores robustly) has its exact epsilon: max(top, plus robust_extra when ranking robustly,
+/// fine_tune).
+int hull_rank_for(const FinishOptions& options);
+
 /// Seconds spent in the parts of finish().
 struct FinishTimings {
   double fine_tune = 0.0;  ///< ranking, fine-tuning, deduplication and the scoring with every contact

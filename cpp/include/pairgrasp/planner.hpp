@@ -137,7 +137,7 @@ struct PlanOptions {
   int contacts_per_link = 4; ///< contacts scored per link while searching (0: every contact)
   int max_evaluations = -1;  ///< candidates evaluated at most (< 0: all)
   /// PipelineOptions::hull_rank: only candidates that can reach this many best epsilons pay for
-  /// the full hull (< 0: max(top, fine_tune); 0: every candidate).
+  /// the full hull (< 0: hull_rank_for() of the finish options; 0: every candidate).
   int hull_rank = -1;
   Ranking rank = Ranking::Robust;  ///< FinishOptions::rank
   int robust_samples = 8;          ///< RobustOptions::samples of the robust ranking
