@@ -21,7 +21,9 @@ The scene (:class:`Simulator`, compiled once per hand, target and obstacles):
   collide with itself (the planner does not check self-collision either).
 * **Target.** A free body whose mass, centre of mass and inertia tensor come from the watertight
   mesh and ``density`` (:func:`pairgrasp.mass_properties`; the convex parts overlap, so their
-  volumes would overfill), colliding as convex pieces (CoACD for non-convex targets).
+  volumes would overfill), or for an open mesh from its closed stand-in, its convex hull (measured:
+  docs/physics.md), or from a given ``mass``; colliding as convex pieces (CoACD for
+  non-convex targets).
 * **Obstacles and occluders** of the plan: static (mocap) bodies of convex pieces, in the target
   frame. They take part while the hand closes and are moved away for the load phases, as when the
   object is lifted off a table or taken from the holder's hand.
@@ -66,7 +68,7 @@ import numpy as np
 
 from . import _core
 from .convex import DEFAULT_THRESHOLD, convex_pieces
-from .inertia import mass_properties
+from .inertia import hull_mass_properties, mass_properties, solid_mass_properties
 from .params import with_overrides
 from .planner import _as_mesh
 
@@ -279,8 +281,10 @@ class Simulator:
 
     Args:
         hand: a :class:`pairgrasp.Hand` or the path of a hand spec.
-        target: a :class:`pairgrasp.Mesh` or a mesh path (metres), closed (its mass and inertia come
-            from its solid).
+        target: a :class:`pairgrasp.Mesh` or a mesh path (metres). Its mass and inertia come from its
+            solid when it is closed, else from a closed stand-in (:func:`pairgrasp.inertia.solid_mass_properties`).
+        mass: the target's mass (kg) instead of its volume times ``density`` (the shape's inertia is
+            scaled to it).
         obstacles: meshes (or paths) in the target frame: the plan's obstacles and occluders.
         params: :class:`SimParams`; keyword arguments override its fields.
 
@@ -290,22 +294,24 @@ class Simulator:
         counts: numbers of bodies, joints, equality constraints, actuators, geoms, convex pieces per
             part, checked against the hand when the scene is built.
         target_mass: kg.
+        target_mass_source: where the mass and inertia come from (``"solid"``, ``"convex hull (not
+            closed)"``, ...: :func:`pairgrasp.inertia.solid_mass_properties`).
 
     Raises:
         ImportError: MuJoCo is not installed.
-        ValueError: bad parameters, a target that is not closed, a DOF joint without an effort limit.
+        ValueError: bad parameters or mass, a DOF joint without an effort limit.
     """
 
-    def __init__(self, hand, target, obstacles: Sequence = (), params: Optional[SimParams] = None, **overrides):
+    def __init__(self, hand, target, obstacles: Sequence = (), params: Optional[SimParams] = None,
+                 mass: Optional[float] = None, **overrides):
         mujoco = import_mujoco()
         self.params = with_overrides(SimParams, params, overrides, "simulation")
         p = self.params
         self.hand = hand if isinstance(hand, _core.Hand) else _core.load_hand(os.fspath(hand))
         self.target = _as_mesh(target, "target")
         self.obstacles = [_as_mesh(o, "obstacle") for o in obstacles]
-        if not self.target.closed:
-            raise ValueError("target: the mesh is not closed, so it has no solid to take mass and inertia from")
-        props = mass_properties(self.target, p.density)
+        target_pieces = convex_pieces(self.target, threshold=p.convex_threshold)
+        props, self.target_mass_source = solid_mass_properties(self.target, p.density, target_pieces, mass)
         self.target_mass = props.mass
 
         spec = mujoco.MjSpec()
@@ -329,8 +335,7 @@ class Simulator:
         tb.ipos = props.center_of_mass
         I = props.inertia
         tb.fullinertia = [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]
-        n = self._add_pieces(spec, tb, "target", convex_pieces(self.target, threshold=p.convex_threshold),
-                             contype=2, conaffinity=1 | 4)
+        n = self._add_pieces(spec, tb, "target", target_pieces, contype=2, conaffinity=1 | 4)
         self.counts["pieces"]["target"] = n
         self._obstacle_bodies = []
         for k, mesh in enumerate(self.obstacles):
@@ -450,7 +455,7 @@ class Simulator:
                     if mesh is not None:
                         mp = mass_properties(mesh, self.params.hand_density)
                     else:
-                        mp = _hull_mass_properties(link.mesh.vertices, self.params.hand_density)
+                        mp = hull_mass_properties(link.mesh.vertices, self.params.hand_density)
                 except ValueError:
                     mp = None
             if mp is None:   # no geometry: a 1 g point mass with the inertia of a 1 cm sphere
@@ -622,23 +627,11 @@ class Simulator:
         return tuple(sorted(links))
 
 
-def _hull_mass_properties(vertices, density):
-    from scipy.spatial import ConvexHull
-
-    V = np.asarray(vertices, float)
-    hull = ConvexHull(V)
-    F = hull.simplices.copy()
-    c = V[hull.vertices].mean(axis=0)
-    a, b, cc = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-    flip = np.einsum("ij,ij->i", np.cross(b - a, cc - a), a - c) < 0
-    F[flip] = F[flip][:, ::-1]
-    return mass_properties((V, F), density)
-
-
 @dataclass
 class SimReport:
     """What :func:`simulate_grasps` returns: the results of the simulated grasps (file order), their
-    ranks and epsilons, the simulator's scene counts and the path written."""
+    ranks and epsilons, the simulator's scene counts, the target's mass (kg) and where it came from
+    (:attr:`Simulator.target_mass_source`) and the path written."""
 
     results: List[SimResult]
     ranks: List[int]
@@ -646,11 +639,13 @@ class SimReport:
     counts: dict
     params: SimParams
     path: str
+    target_mass: float
+    target_mass_source: str
     picture: Optional[str]
 
 
 def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, params: Optional[SimParams] = None,
-                    picture: bool = True, progress=None, **overrides) -> SimReport:
+                    picture: bool = True, progress=None, mass: Optional[float] = None, **overrides) -> SimReport:
     """Simulates the first ``top`` grasps of a grasps.json file and writes each outcome into it, as
     ``grasps[i].simulation`` (:meth:`SimResult.to_dict`) with the parameters under the top-level
     ``simulation`` key, and a picture of epsilon against the outcome beside it
@@ -679,7 +674,7 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
         for k, o in enumerate(inputs.get(key, []) or []):
             others.append(_core.load_mesh(_resolve(o, base, f"{path}: inputs.{key}[{k}]"), scale=scale))
     grasps = gf.grasps if top is None else gf.grasps[:top]
-    sim = Simulator(hand, target, others, params=params, **overrides)
+    sim = Simulator(hand, target, others, params=params, mass=mass, **overrides)
     results = []
     for k, g in enumerate(grasps):
         results.append(sim.simulate(g.wrist_pose, g.dofs))
@@ -689,7 +684,8 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
     for g, r in zip(doc["grasps"], results):
         g["simulation"] = r.to_dict()
     doc["simulation"] = {"engine": f"mujoco {import_mujoco().__version__}", "parameters": asdict(sim.params),
-                         "target_mass": round(sim.target_mass, 9), "simulated": len(results),
+                         "target_mass": round(sim.target_mass, 9),
+                         "target_mass_source": sim.target_mass_source, "simulated": len(results),
                          "scene": {k: v for k, v in sim.counts.items()}}
     out_png = None
     tmp_png = None
@@ -708,4 +704,5 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
         if tmp_png and os.path.exists(tmp_png):
             os.remove(tmp_png)
     return SimReport(results=results, ranks=[g.rank for g in grasps], epsilons=[g.epsilon for g in grasps],
-                     counts=sim.counts, params=sim.params, path=path, picture=out_png)
+                     counts=sim.counts, params=sim.params, path=path, picture=out_png,
+                     target_mass=sim.target_mass, target_mass_source=sim.target_mass_source)
