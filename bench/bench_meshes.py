@@ -1,6 +1,6 @@
 """Third-party meshes through the whole pipeline: plan, then simulate the top grasp.
 
-    python bench/bench_meshes.py table  [--json meshes.json]   # plan + simulate each mesh (~15 min)
+    python bench/bench_meshes.py table  [--json meshes.json]   # plan + simulate each mesh (~1 h on 2 cores)
     python bench/bench_meshes.py standin [--holed] [--json standin.json]  # stand-ins against true solids
     python bench/bench_meshes.py large                       # a 594k-face flask, with and without max_faces
 
