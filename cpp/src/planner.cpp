@@ -77,6 +77,14 @@ ConstellationMode choose_mode(const Hand& hand, ConstellationChoice choice) {
 
 }  // namespace
 
+double suggest_target_scale(const Mesh& target, double hand_span) {
+  if (!target.vertices.rows() || !(hand_span > 0.0)) return 1.0;
+  const double largest = (target.vertices.colwise().maxCoeff() - target.vertices.colwise().minCoeff()).maxCoeff();
+  if (!(largest > 0.0)) return 1.0;
+  // The power of ten that brings the largest extent nearest (in ratio) to the hand's span.
+  return std::pow(10.0, std::round(std::log10(hand_span / largest)));
+}
+
 void check_target_scale(const Mesh& target, double hand_span) {
   // A hand grasps a part of an object at most about its own size: an object whose every extent is
   // 50 times the hand's span (or whose largest is 200 times smaller) is at the wrong scale.
@@ -84,19 +92,21 @@ void check_target_scale(const Mesh& target, double hand_span) {
   const Eigen::Vector3d extent = (target.vertices.colwise().maxCoeff() - target.vertices.colwise().minCoeff()).transpose();
   const double smallest = extent.minCoeff(), largest = extent.maxCoeff();
   const std::string name = target.source.empty() ? "target" : target.source;
+  const double fix = suggest_target_scale(target, hand_span);
   char buf[512];
   if (smallest > 50.0 * hand_span) {
     std::snprintf(buf, sizeof buf,
                   "%s: every extent of the target is at least %.4g m, %.0f times the hand's span of %.3g m; is the "
-                  "mesh in millimetres? Load it with scale=0.001 (CLI: --scale 0.001)",
-                  name.c_str(), smallest, smallest / hand_span, hand_span);
+                  "mesh in %s? Load it with scale=%g (CLI: --scale %g), which makes it %.3g m across",
+                  name.c_str(), smallest, smallest / hand_span, hand_span,
+                  fix == 1e-3 ? "millimetres" : fix == 1e-2 ? "centimetres" : "other units", fix, fix, largest * fix);
     throw std::invalid_argument(buf);
   }
   if (largest < hand_span / 200.0) {
     std::snprintf(buf, sizeof buf,
                   "%s: the target is at most %.4g m across, 1/%.0f of the hand's span of %.3g m; is it scaled twice? "
-                  "Lengths are metres (CLI: --scale)",
-                  name.c_str(), largest, hand_span / largest, hand_span);
+                  "Lengths are metres: scale=%g (CLI: --scale %g) makes it %.3g m across",
+                  name.c_str(), largest, hand_span / largest, hand_span, fix, fix, largest * fix);
     throw std::invalid_argument(buf);
   }
 }

@@ -261,11 +261,17 @@ def _cmd_simulate(args) -> int:
             sys.stderr.flush()
     t0 = time.perf_counter()
     rep = simulate_grasps(args.grasps, top=args.top, hand=args.hand, target=args.target, params=params,
-                          picture=not args.no_picture, progress=bar, trials=args.trials, seed=args.seed)
+                          picture=not args.no_picture, progress=bar, trials=args.trials, seed=args.seed,
+                          mass=args.mass)
     c = rep.counts
     print(f"{c['bodies']} bodies, {c['joints']} joints, {c['equalities']} equality constraints, "
           f"{c['actuators']} actuators, {c['geoms']} convex geoms; target {rep.params.density:g} kg/m^3, "
           f"friction {rep.params.friction:g}")
+    src = rep.target_mass_source
+    given = src.endswith(", mass given")
+    src = src.replace(", mass given", "")
+    print(f"target mass {rep.target_mass:.4g} kg: " + ("given (--mass), inertia" if given else "mass and inertia")
+          + f" from its {src}" + ("" if given or src == "solid" else "; --mass KG gives the mass"))
     several = args.trials > 1
     rows = [f"{'rank':>4s}  {'epsilon':>8s}  {'outcome':>8s}  {'slip':>9s}  {'turn':>9s}  {'sim':>6s}  {'cpu':>6s}" +
             (f"  held of {args.trials} trials" if several else "")]
@@ -426,6 +432,8 @@ def build_parser() -> argparse.ArgumentParser:
                       help="simulations per grasp: the first as planned, the others with the wrist, friction and "
                       "density perturbed (default 1)")
     simu.add_argument("--seed", type=_count(0), default=0, help="seed of the perturbed trials (default 0)")
+    simu.add_argument("--mass", type=_positive_float, metavar="KG",
+                      help="target mass, kg (default: volume x density; an open mesh's volume is its convex hull's)")
     simu.add_argument("--no-picture", action="store_true", help="do not draw simulation.png")
     simu.add_argument("--quiet", action="store_true", help="no progress bar")
     simu.set_defaults(func=_cmd_simulate)

@@ -24,6 +24,10 @@ class PlanParams:
         d_max: largest stored pair distance (m); None: the largest distance between two samples
             of the hand's constellations over its DOF range, plus h.
         max_pairs: pair budget of the index.
+        max_faces: a target with more faces is simplified to about this many before it is
+            tessellated (quadric edge collapse, :func:`pairgrasp.simplify.simplify_mesh`), within a
+            measured error bound of h / 4, the default penetration tolerance (recorded in the result's ``inputs.target_simplified``);
+            None: never.
         constellation: ``"per_link"`` (the paper's one sample per active link), ``"area"`` (samples
             ``spacing`` apart over the active surfaces) or ``"auto"``: per-link unless every
             per-link pair is antipodal or there are fewer than 3 per-link samples (a parallel
@@ -83,6 +87,7 @@ class PlanParams:
     edge: Optional[float] = None
     d_max: Optional[float] = None
     max_pairs: int = 20_000_000
+    max_faces: Optional[int] = 100_000
     constellation: str = "auto"
     spacing: Optional[float] = None
     max_area_samples: int = 24
@@ -135,8 +140,9 @@ class PlanParams:
                           ("coarse_factor", 1), ("refine", 0), ("refine_rounds", 0), ("chunk", 1), ("fine_tune", 0), ("fine_tune_iterations", 0),
                           ("edges", 3), ("robust_samples", 1), ("top", 1), ("seed", 0), ("threads", 0)):
             _integer(name, getattr(self, name), low)
-        if self.max_evaluations is not None:
-            _integer("max_evaluations", self.max_evaluations, 1)
+        for name, low in (("max_evaluations", 1), ("max_faces", 4)):
+            if getattr(self, name) is not None:
+                _integer(name, getattr(self, name), low)
         if self.contacts_per_link is not None:
             _integer("contacts_per_link", self.contacts_per_link, 1)
 

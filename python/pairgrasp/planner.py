@@ -81,6 +81,7 @@ from . import _core
 from .checks import warn_if_open
 from .params import PlanParams, with_overrides
 from .results import Candidate, Grasp, PlanResult, _round
+from .simplify import simplify_mesh
 
 __all__ = ["PlanParams", "Grasp", "Candidate", "PlanResult", "Planner", "dof_grid"]
 
@@ -188,6 +189,7 @@ class Planner:
                        "target": os.fspath(target) if not isinstance(target, _core.Mesh) else "<mesh>",
                        "target_faces": int(len(self.target.faces))}
         free = self._free_mask(paint, occluders, viewpoints, occluder_distance)
+        self.target, free = self._simplified(free)
         self.free = free
         self.obstacles = [_as_mesh(o, "obstacle") for o in obstacles]
         if obstacles:
@@ -239,6 +241,26 @@ class Planner:
             free = np.ones(len(mesh.faces), bool)
         return np.asarray(free, bool)
 
+    def _simplified(self, free):
+        """The target simplified when it has more than ``max_faces`` faces (recorded in
+        ``inputs.target_simplified``), with the free mask carried over: each simplified face takes the
+        mask of the original face nearest its centre."""
+        p, mesh = self.params, self.target
+        if p.max_faces is None:
+            return mesh, free
+        small, info = simplify_mesh(mesh, p.max_faces, 0.25 * (p.edge or 0.005))
+        if info is None:
+            return mesh, free
+        self.inputs["target_simplified"] = info.to_dict()
+        if small is mesh:
+            return mesh, free
+        if not free.all():
+            centres = np.asarray(small.vertices)[np.asarray(small.faces)].mean(axis=1)
+            free = free[np.asarray(_core.SurfaceQuery(mesh).closest(centres).faces)]
+        else:
+            free = np.ones(len(small.faces), bool)
+        return small, free
+
     # ---------------------------------------------------------------- scheduling
 
     def steps(self, step: Optional[float] = None) -> np.ndarray:
@@ -271,7 +293,7 @@ class Planner:
         the parameters (schedule, step, poses_per_sample, ..., not the ones the constructor used:
         edge, d_max, max_pairs, constellation, spacing, depth_tolerance, gap)."""
         p = PlanParams(**asdict(self.params))
-        fixed = {"edge", "d_max", "max_pairs", "constellation", "spacing", "depth_tolerance", "gap",
+        fixed = {"edge", "d_max", "max_pairs", "max_faces", "constellation", "spacing", "depth_tolerance", "gap",
                  "max_area_samples", "threads"}
         for k, v in overrides.items():
             if k not in {f.name for f in fields(PlanParams)}:

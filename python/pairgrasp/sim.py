@@ -21,7 +21,9 @@ The scene (:class:`Simulator`, compiled once per hand, target and obstacles):
   collide with itself (the planner does not check self-collision either).
 * **Target.** A free body whose mass, centre of mass and inertia tensor come from the watertight
   mesh and ``density`` (:func:`pairgrasp.mass_properties`; the convex parts overlap, so their
-  volumes would overfill), colliding as convex pieces (CoACD for non-convex targets).
+  volumes would overfill), or for an open mesh from its closed stand-in, its convex hull (measured:
+  docs/physics.md), or from a given ``mass``; colliding as convex pieces (CoACD for
+  non-convex targets).
 * **Obstacles and occluders** of the plan: static (mocap) bodies of convex pieces, in the target
   frame. They take part while the hand closes and are moved away for the load phases, as when the
   object is lifted off a table or taken from the holder's hand.
@@ -66,7 +68,7 @@ import numpy as np
 
 from . import _core
 from .convex import DEFAULT_THRESHOLD, convex_pieces
-from .inertia import mass_properties
+from .inertia import hull_mass_properties, mass_properties, solid_mass_properties
 from .params import with_overrides
 from .planner import _as_mesh
 
@@ -361,8 +363,10 @@ class Simulator:
 
     Args:
         hand: a :class:`pairgrasp.Hand` or the path of a hand spec.
-        target: a :class:`pairgrasp.Mesh` or a mesh path (metres), closed (its mass and inertia come
-            from its solid).
+        target: a :class:`pairgrasp.Mesh` or a mesh path (metres). Its mass and inertia come from its
+            solid when it is closed, else from a closed stand-in (:func:`pairgrasp.inertia.solid_mass_properties`).
+        mass: the target's mass (kg) instead of its volume times ``density`` (the shape's inertia is
+            scaled to it).
         obstacles: meshes (or paths) in the target frame: the plan's obstacles and occluders.
         params: :class:`SimParams`; keyword arguments override its fields.
 
@@ -372,22 +376,24 @@ class Simulator:
         counts: numbers of bodies, joints, equality constraints, actuators, geoms, convex pieces per
             part, checked against the hand when the scene is built.
         target_mass: kg.
+        target_mass_source: where the mass and inertia come from (``"solid"``, ``"convex hull (not
+            closed)"``, ...: :func:`pairgrasp.inertia.solid_mass_properties`).
 
     Raises:
         ImportError: MuJoCo is not installed.
-        ValueError: bad parameters, a target that is not closed, a DOF joint without an effort limit.
+        ValueError: bad parameters or mass, a DOF joint without an effort limit.
     """
 
-    def __init__(self, hand, target, obstacles: Sequence = (), params: Optional[SimParams] = None, **overrides):
+    def __init__(self, hand, target, obstacles: Sequence = (), params: Optional[SimParams] = None,
+                 mass: Optional[float] = None, **overrides):
         mujoco = import_mujoco()
         self.params = with_overrides(SimParams, params, overrides, "simulation")
         p = self.params
         self.hand = hand if isinstance(hand, _core.Hand) else _core.load_hand(os.fspath(hand))
         self.target = _as_mesh(target, "target")
         self.obstacles = [_as_mesh(o, "obstacle") for o in obstacles]
-        if not self.target.closed:
-            raise ValueError("target: the mesh is not closed, so it has no solid to take mass and inertia from")
-        props = mass_properties(self.target, p.density)
+        target_pieces = convex_pieces(self.target, threshold=p.convex_threshold)
+        props, self.target_mass_source = solid_mass_properties(self.target, p.density, target_pieces, mass)
         self.target_mass = props.mass
 
         spec = mujoco.MjSpec()
@@ -411,8 +417,7 @@ class Simulator:
         tb.ipos = props.center_of_mass
         I = props.inertia
         tb.fullinertia = [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]
-        n = self._add_pieces(spec, tb, "target", convex_pieces(self.target, threshold=p.convex_threshold),
-                             contype=2, conaffinity=1 | 4)
+        n = self._add_pieces(spec, tb, "target", target_pieces, contype=2, conaffinity=1 | 4)
         self.counts["pieces"]["target"] = n
         self._obstacle_bodies = []
         for k, mesh in enumerate(self.obstacles):
@@ -532,7 +537,7 @@ class Simulator:
                     if mesh is not None:
                         mp = mass_properties(mesh, self.params.hand_density)
                     else:
-                        mp = _hull_mass_properties(link.mesh.vertices, self.params.hand_density)
+                        mp = hull_mass_properties(link.mesh.vertices, self.params.hand_density)
                 except ValueError:
                     mp = None
             if mp is None:   # no geometry: a 1 g point mass with the inertia of a 1 cm sphere
@@ -704,19 +709,6 @@ class Simulator:
         return tuple(sorted(links))
 
 
-def _hull_mass_properties(vertices, density):
-    from scipy.spatial import ConvexHull
-
-    V = np.asarray(vertices, float)
-    hull = ConvexHull(V)
-    F = hull.simplices.copy()
-    c = V[hull.vertices].mean(axis=0)
-    a, b, cc = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-    flip = np.einsum("ij,ij->i", np.cross(b - a, cc - a), a - c) < 0
-    F[flip] = F[flip][:, ::-1]
-    return mass_properties((V, F), density)
-
-
 def simulate_trials(sim: "Simulator", wrist_pose, dofs, trials: Sequence[Trial]) -> List[SimResult]:
     """Simulates one grasp once per trial (:func:`trial_perturbations`): the wrist pose perturbed by
     the trial's offset, with its friction and density."""
@@ -735,7 +727,8 @@ def _trials_record(trials: Sequence[Trial], results: Sequence[SimResult]) -> dic
 class SimReport:
     """What :func:`simulate_grasps` returns: the results of the simulated grasps (file order; trial
     0, as planned), every trial's (``trials[i][k]``), their ranks and epsilons, the simulator's
-    scene counts and the path written."""
+    scene counts, the target's mass (kg) and where it came from
+    (:attr:`Simulator.target_mass_source`) and the path written."""
 
     results: List[SimResult]
     ranks: List[int]
@@ -743,6 +736,8 @@ class SimReport:
     counts: dict
     params: SimParams
     path: str
+    target_mass: float
+    target_mass_source: str
     picture: Optional[str]
     trials: List[List[SimResult]]
 
@@ -754,13 +749,14 @@ class SimReport:
 
 def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, params: Optional[SimParams] = None,
                     picture: bool = True, progress=None, trials: int = 1, seed: int = 0,
-                    noise: Optional[TrialNoise] = None, **overrides) -> SimReport:
+                    noise: Optional[TrialNoise] = None, mass: Optional[float] = None, **overrides) -> SimReport:
     """Simulates the first ``top`` grasps of a grasps.json file ``trials`` times each (trial 0 as
     planned, the others perturbed: :func:`trial_perturbations` with ``seed`` and ``noise``) and
     writes each outcome into it, as ``grasps[i].simulation`` (trial 0's :meth:`SimResult.to_dict`,
     plus ``trials``: every trial's outcome with its perturbation, and ``success_rate``), with the
     parameters under the top-level ``simulation`` key, and a picture of epsilon against the outcome
-    as planned beside it (``simulation.png``).
+    as planned beside it (``simulation.png``). ``mass``: the target's mass (kg) instead of its
+    volume times the density (:class:`Simulator`).
 
     The hand, target, obstacles and occluders are those recorded in the file's ``inputs`` (paths
     relative to the current folder or to the file's folder), unless ``hand`` / ``target`` are given.
@@ -787,7 +783,7 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
         for k, o in enumerate(inputs.get(key, []) or []):
             others.append(_core.load_mesh(_resolve(o, base, f"{path}: inputs.{key}[{k}]"), scale=scale))
     grasps = gf.grasps if top is None else gf.grasps[:top]
-    sim = Simulator(hand, target, others, params=params, **overrides)
+    sim = Simulator(hand, target, others, params=params, mass=mass, **overrides)
     per_grasp = []
     for k, g in enumerate(grasps):
         per_grasp.append(simulate_trials(sim, g.wrist_pose, g.dofs, perturbations))
@@ -798,7 +794,8 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
     for g, rs in zip(doc["grasps"], per_grasp):
         g["simulation"] = _trials_record(perturbations, rs)
     doc["simulation"] = {"engine": f"mujoco {import_mujoco().__version__}", "parameters": asdict(sim.params),
-                         "target_mass": round(sim.target_mass, 9), "simulated": len(results),
+                         "target_mass": round(sim.target_mass, 9),
+                         "target_mass_source": sim.target_mass_source, "simulated": len(results),
                          "trials": len(perturbations), "seed": int(seed), "noise": asdict(noise or TrialNoise()),
                          "scene": {k: v for k, v in sim.counts.items()}}
     out_png = None
@@ -818,7 +815,8 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
         if tmp_png and os.path.exists(tmp_png):
             os.remove(tmp_png)
     return SimReport(results=results, ranks=[g.rank for g in grasps], epsilons=[g.epsilon for g in grasps],
-                     counts=sim.counts, params=sim.params, path=path, picture=out_png, trials=per_grasp)
+                     counts=sim.counts, params=sim.params, path=path, picture=out_png, trials=per_grasp,
+                     target_mass=sim.target_mass, target_mass_source=sim.target_mass_source)
 
 
 def verify_grasps(path, top: int, trials: int = 4, seed: int = 0, progress=None, **kwargs) -> List[int]:

@@ -2,6 +2,7 @@
 // facts (box volumes and areas, sphere bounds, explicit vertex transforms).
 #include <pairgrasp/error.hpp>
 #include <pairgrasp/mesh.hpp>
+#include <pairgrasp/planner.hpp>
 
 #include <gtest/gtest.h>
 
@@ -1006,4 +1007,27 @@ TEST_F(MeshFiles, MutatedFilesLoadOrThrowFileError) {
   }
   EXPECT_GT(loaded, 0);
   EXPECT_GT(rejected, 0);
+}
+
+// ------------------------------------------------------------------------------ units
+
+TEST(TargetScale, MillimetresAreRefusedNamingTheScaleThatFixesThem) {
+  const double span = 0.19;  // the Barrett hand's d_max
+  const Eigen::Vector3d mug(0.125, 0.081, 0.103);
+  const Mesh metres = make_mesh(make_box(mug).v, make_box(mug).f, "mug");
+  EXPECT_EQ(pairgrasp::suggest_target_scale(metres, span), 1.0);
+  EXPECT_NO_THROW(pairgrasp::check_target_scale(metres, span));
+  const Mesh mm = make_mesh(make_box(mug * 1000.0).v, make_box(mug * 1000.0).f, "mug_mm");
+  EXPECT_DOUBLE_EQ(pairgrasp::suggest_target_scale(mm, span), 1e-3);
+  try {
+    pairgrasp::check_target_scale(mm, span);
+    FAIL() << "a mug in millimetres was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("mug_mm: "), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("millimetres? Load it with scale=0.001 (CLI: --scale 0.001), which makes it "
+                                         "0.125 m across"), std::string::npos) << e.what();
+  }
+  const Mesh tiny = make_mesh(make_box(mug / 1000.0).v, make_box(mug / 1000.0).f, "mug_km");
+  EXPECT_DOUBLE_EQ(pairgrasp::suggest_target_scale(tiny, span), 1e3);
+  EXPECT_THROW(pairgrasp::check_target_scale(tiny, span), std::invalid_argument);
 }

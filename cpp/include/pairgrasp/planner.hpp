@@ -67,10 +67,15 @@ struct PlannerSetup {
   double reach = 0.0;            ///< largest distance of a constellation sample from the wrist (m)
 };
 
-/// Throws std::invalid_argument ("<target source>: ... is the mesh in millimetres? ... scale 0.001")
+/// The power of ten that brings the largest extent of `target` nearest (in ratio) to `hand_span`
+/// metres: 0.001 for a hand-sized object in millimetres, 1 for one in metres; 1 for an empty or flat mesh.
+double suggest_target_scale(const Mesh& target, double hand_span);
+
+/// Throws std::invalid_argument ("<target source>: ... is the mesh in millimetres? ... --scale 0.001")
 /// when `target` is far too large or too small for a hand whose samples span `hand_span` metres:
 /// every extent above 50 spans, or the largest below 1/200 of one. The usual sign of a mesh in
-/// millimetres read as metres, or of a scale applied twice.
+/// millimetres read as metres, or of a scale applied twice. The message names the scale that fixes
+/// it (suggest_target_scale()) and the size the target then has.
 void check_target_scale(const Mesh& target, double hand_span);
 
 /// Resolves PlannerOptions for a hand and a target (see each option), checking the target's scale
