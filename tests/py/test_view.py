@@ -263,18 +263,21 @@ def test_viewer_draws_in_a_headless_browser(jaw_grasps, tmp_path):
     if exe is None:
         pytest.skip("no chromium on PATH (apt-get install chromium; scripts/install_deps.sh does)")
     path, _, _ = jaw_grasps
-    server = subprocess.Popen([sys.executable, "-m", "pairgrasp.cli", "view", str(path), "--port", "0"],
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # The server's output goes to files: a pipe nobody reads while the page is drawn fills up and
+    # blocks the server, which then cannot stop.
+    out, err = tmp_path / "server.out", tmp_path / "server.err"
+    with open(out, "w") as fo, open(err, "w") as fe:
+        server = subprocess.Popen([sys.executable, "-m", "pairgrasp.cli", "view", str(path), "--port", "0"],
+                                  stdout=fo, stderr=fe, stdin=subprocess.DEVNULL, text=True)
     browser = None
     try:
         url, t0 = None, time.monotonic()
-        while url is None and time.monotonic() - t0 < 120:
-            line = server.stdout.readline()
-            if not line:
-                break
-            if line.startswith("viewing "):
-                url = line.split(" at ", 1)[1].split()[0]
-        assert url, f"the viewer printed no URL: {server.stderr.read() if server.poll() is not None else ''}"
+        while url is None and time.monotonic() - t0 < 120 and server.poll() is None:
+            time.sleep(0.2)
+            for line in out.read_text().splitlines():
+                if line.startswith("viewing "):
+                    url = line.split(" at ", 1)[1].split()[0]
+        assert url, f"the viewer printed no URL: {err.read_text()[-2000:]}"
         browser = _Browser(exe, tmp_path / "profile")
         # From below the box: its occluded bottom faces face the camera.
         browser.call("Page.navigate", url=url + "/?initialCameraPosition=0.12,-0.16,-0.1&initialCameraLookAt=0,0,0.03")
@@ -295,7 +298,7 @@ def test_viewer_draws_in_a_headless_browser(jaw_grasps, tmp_path):
             browser.close()
         server.send_signal(signal.SIGINT)
         try:
-            code = server.wait(timeout=120)  # the server's shutdown is slow on a loaded machine
+            code = server.wait(timeout=60)
         except subprocess.TimeoutExpired:
             server.kill()
             code = server.wait()
