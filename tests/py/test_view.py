@@ -267,8 +267,11 @@ def test_viewer_draws_in_a_headless_browser(jaw_grasps, tmp_path):
     # blocks the server, which then cannot stop.
     out, err = tmp_path / "server.out", tmp_path / "server.err"
     with open(out, "w") as fo, open(err, "w") as fe:
+        # SIGINT back to its default in the server: a shell that runs the tests in the background
+        # starts them with SIGINT ignored, which the server would inherit and keep.
         server = subprocess.Popen([sys.executable, "-m", "pairgrasp.cli", "view", str(path), "--port", "0"],
-                                  stdout=fo, stderr=fe, stdin=subprocess.DEVNULL, text=True)
+                                  stdout=fo, stderr=fe, stdin=subprocess.DEVNULL, text=True,
+                                  preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     browser = None
     try:
         url, t0 = None, time.monotonic()
