@@ -134,9 +134,10 @@ def test_time_limit_stops_within_the_chunk_under_way(barrett_flask):
     c = r.counts
     assert 0 < c["aligned_samples"] < c["samples"] and c["skipped"] > 0
     assert c["samples"] == c["rejected"] + c["aligned_samples"] + c["skipped"]
+    # Candidates evaluated after the limit all come from the chunk under way (which may have
+    # evaluated none: its poses can all be dropped or duplicates, as happened under ASan's timing).
     late = [cand for cand in r.candidates if cand.time > limit]
-    assert late, "the chunk under way when the limit passed finishes"
-    assert min(cand.sample for cand in late) >= c["aligned_samples"] - chunk
+    assert all(cand.sample >= c["aligned_samples"] - chunk for cand in late)
     assert not any(g.fine_tuned for g in r.grasps)
 
 
