@@ -124,6 +124,10 @@ class Settler {
           continue;
         }
       } else {
+        // The first clear distance is the farthest the palm goes back: where even the fully open
+        // fingers penetrate there, the candidate is dropped without bisecting the back-off (the
+        // bisection only brings the hand closer to the target).
+        if (!hi && fingers_stuck(backed(c.pose, d), c)) return false;
         hi = d;
       }
       if (*hi - lo <= h / 2.0) {
@@ -136,26 +140,50 @@ class Settler {
     }
   }
 
+  // The closing DOFs whose links are bad in the current states, and the DOF vector with each of
+  // them at its open limit (`open`); `moving` marks the links those DOFs move. False when no
+  // closing DOF can open.
+  bool bad_dofs(const Candidate& c, std::vector<char>& bad_dof, std::vector<char>& moving, Eigen::VectorXd& open) const {
+    const Eigen::Index D = c.dofs.size();
+    const Eigen::VectorXi dirs = closing_directions(I_.hand, c.dofs);
+    const Eigen::VectorXd lower = I_.hand.dof_lower(), upper = I_.hand.dof_upper();
+    bad_dof.assign(D, 0);
+    moving.assign(states_.size(), 0);
+    open = c.dofs;
+    bool any = false;
+    for (Eigen::Index d = 0; d < D; ++d) {
+      const double limit = dirs[d] > 0 ? lower[d] : (dirs[d] < 0 ? upper[d] : c.dofs[d]);
+      bool bad = false;
+      for (std::size_t l = 0; l < states_.size(); ++l) bad = bad || (moved_[d][l] && states_[l].bad);
+      if (!bad || limit == c.dofs[d]) continue;
+      bad_dof[d] = 1;
+      open[d] = limit;
+      any = true;
+      for (std::size_t l = 0; l < states_.size(); ++l) moving[l] = moving[l] || moved_[d][l];
+    }
+    return any;
+  }
+
+  // Whether, at `wrist` (palm group clear), some link is still bad with every bad closing DOF
+  // fully open. Leaves the states of the links it measured.
+  bool fingers_stuck(const Pose& wrist, const Candidate& c) {
+    std::vector<char> rest(states_.size()), bad_dof, moving;
+    for (std::size_t l = 0; l < rest.size(); ++l) rest[l] = !fixed_[l];
+    measure(wrist, c.dofs, rest);
+    if (!any_bad(rest)) return false;
+    Eigen::VectorXd open;
+    if (!bad_dofs(c, bad_dof, moving, open)) return true;
+    measure(wrist, open, moving);
+    return any_bad(rest);
+  }
+
   // Bisection of every bad closing DOF between its aligned value and its open limit, to a quarter
   // of its step, all at once (a DOF's links decide its own interval).
   void open_fingers(const Candidate& c, EvaluatedCandidate& out) {
     const Eigen::Index D = c.dofs.size();
-    const Eigen::VectorXi dirs = closing_directions(I_.hand, c.dofs);
-    const Eigen::VectorXd lower = I_.hand.dof_lower(), upper = I_.hand.dof_upper();
-    std::vector<char> bad_dof(D, 0), moving(states_.size(), 0);
-    Eigen::VectorXd lo = out.start_dofs, hi = out.start_dofs;
-    bool any = false;
-    for (Eigen::Index d = 0; d < D; ++d) {
-      const double open = dirs[d] > 0 ? lower[d] : (dirs[d] < 0 ? upper[d] : c.dofs[d]);
-      bool bad = false;
-      for (std::size_t l = 0; l < states_.size(); ++l) bad = bad || (moved_[d][l] && states_[l].bad);
-      if (!bad || open == c.dofs[d]) continue;
-      bad_dof[d] = 1;
-      hi[d] = open;
-      any = true;
-      for (std::size_t l = 0; l < states_.size(); ++l) moving[l] = moving[l] || moved_[d][l];
-    }
-    if (!any || any_bad(fixed_)) return;
+    std::vector<char> bad_dof, moving;
+    Eigen::VectorXd lo = out.start_dofs, hi;
+    if (!bad_dofs(c, bad_dof, moving, hi) || any_bad(fixed_)) return;
     measure(out.start_pose, hi, moving);
     if (any_bad(std::vector<char>(states_.size(), 1))) return;  // even fully open, something is bad
     const Eigen::VectorXd steps = I_.hand.dof_step();  // the hand's resolution, whatever the schedule's step
