@@ -249,15 +249,16 @@ particular order.)doc")
 
   m.def(
       "suggest_edge",
-      [](const Mesh& mesh, double d_max, std::size_t max_pairs, const pyb::object& free) {
+      [](const Mesh& mesh, double d_max, std::size_t max_pairs, const pyb::object& free, double min_edge) {
         const Mask mask = as_mask(free, "free", long(mesh.faces.rows()));
         pyb::gil_scoped_release release;
-        return suggest_edge(mesh, d_max, max_pairs, mask);
+        return suggest_edge(mesh, d_max, max_pairs, mask, min_edge);
       },
-      "mesh"_a, "d_max"_a = 0.2, "max_pairs"_a = 100'000'000, "free"_a = pyb::none(), R"doc(
+      "mesh"_a, "d_max"_a = 0.2, "max_pairs"_a = 100'000'000, "free"_a = pyb::none(), "min_edge"_a = 0.0, R"doc(
 The finest facet edge (metres, to a few per cent) whose tessellation stores no more than
 `max_pairs` pairs with d <= d_max: estimated from the area, then checked by tessellating and
-counting.)doc");
+counting. A positive `min_edge` is the finest edge wanted: counted first and returned when its
+pairs fit; the result is never finer.)doc");
 
   pyb::class_<TargetIndex>(m, "TargetIndex", "A target ready for alignment: its unit facets and their PairIndex.")
       .def_readonly("facets", &TargetIndex::facets)

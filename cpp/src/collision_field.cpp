@@ -10,6 +10,7 @@
 #include <pairgrasp/collision.hpp>
 
 #include "collision_internal.hpp"
+#include "thread_pool.hpp"
 
 #include <fcl/narrowphase/collision.h>
 #include <fcl/narrowphase/distance.h>
@@ -111,61 +112,69 @@ SphereTree make_sphere_tree(const Mesh& mesh, const std::vector<int>& faces, dou
 void GraspChecker::Impl::build_fields() {
   const double cell = options.field_cell;
   const double band = std::max(options.depth_tolerance, options.contact_gap) + 0.25 * cell;
-  for (vd::LinkModel& L : links) {
-    const Mesh& m = L.link->mesh;
-    for (Eigen::Index f = 0; f < m.faces.rows(); ++f)
-      L.tris.push_back({Vec3(m.vertices.row(m.faces(f, 0)).transpose()), Vec3(m.vertices.row(m.faces(f, 1)).transpose()),
-                        Vec3(m.vertices.row(m.faces(f, 2)).transpose())});
-    L.surface = vd::make_sphere_tree(m, {}, cell);
-    if (L.link->active()) L.active_surface = vd::make_sphere_tree(m, L.link->active_faces, cell);
-    if (!L.query->closed()) continue;
-    // Convex when every vertex lies on the inner side of every face's plane.
-    const double eps = 1e-9 * L.bounds.diagonal().norm();
-    bool convex = true;
-    for (const vd::Tri& t : L.tris) {
-      const Vec3 n = (t[1] - t[0]).cross(t[2] - t[0]).normalized();
-      const double d = n.dot(t[0]);
-      for (Eigen::Index v = 0; v < m.vertices.rows() && convex; ++v)
-        convex = n.dot(Vec3(m.vertices.row(v).transpose())) - d <= eps;
-      // Coplanar faces give one plane.
-      const Eigen::Vector4d pl(n.x(), n.y(), n.z(), d);
-      bool seen = false;
-      for (const Eigen::Vector4d& q : L.distance.planes) seen = seen || (q - pl).cwiseAbs().maxCoeff() <= 1e-12;
-      if (!seen) L.distance.planes.push_back(pl);
+  // Every link, the target's field and the occluded faces' field are built at once (each field's
+  // own loop runs nested on the same pool).
+  const std::size_t L_n = links.size();
+  detail::parallel_for(L_n + 2, options.threads, [&](std::size_t task) {
+    if (task < L_n) {
+      build_link_field(links[task], cell, band);
+    } else if (task == L_n) {
+      vd::SceneModel& T = scene[0];
+      if (!T.query->closed()) return;
+      DistanceFieldOptions fo;
+      fo.cell = cell;
+      fo.band = band;
+      fo.threads = options.threads;
+      T.field = std::make_unique<DistanceField>(*T.query, fo);
+    } else if (occluded) {
+      Mesh occ = target;
+      std::vector<int> rows;
+      for (Eigen::Index f = 0; f < target.faces.rows(); ++f)
+        if (!free[f]) rows.push_back(static_cast<int>(f));
+      occ.faces.resize(static_cast<Eigen::Index>(rows.size()), 3);
+      for (std::size_t i = 0; i < rows.size(); ++i) occ.faces.row(static_cast<Eigen::Index>(i)) = target.faces.row(rows[i]);
+      occ.closed = false;
+      occluded_query = std::make_unique<SurfaceQuery>(occ);
+      DistanceFieldOptions fo;
+      fo.cell = cell;
+      fo.band = options.contact_gap + 0.25 * cell;
+      fo.region = occluded_bounds;
+      fo.threads = options.threads;
+      occluded_field = std::make_unique<DistanceField>(*occluded_query, fo);
     }
-    L.distance.slack = 2.0 * L.query->surface_tolerance() + 4.0 * eps + 1e-12;
-    if (convex) continue;
-    L.distance.planes.clear();
-    DistanceFieldOptions fo;
-    fo.cell = cell;
-    fo.band = band;
-    fo.threads = options.threads;
-    L.distance.field = std::make_unique<DistanceField>(*L.query, fo);
+  });
+}
+
+void GraspChecker::Impl::build_link_field(vd::LinkModel& L, double cell, double band) {
+  const Mesh& m = L.link->mesh;
+  for (Eigen::Index f = 0; f < m.faces.rows(); ++f)
+    L.tris.push_back({Vec3(m.vertices.row(m.faces(f, 0)).transpose()), Vec3(m.vertices.row(m.faces(f, 1)).transpose()),
+                      Vec3(m.vertices.row(m.faces(f, 2)).transpose())});
+  L.surface = vd::make_sphere_tree(m, {}, cell);
+  if (L.link->active()) L.active_surface = vd::make_sphere_tree(m, L.link->active_faces, cell);
+  if (!L.query->closed()) return;
+  // Convex when every vertex lies on the inner side of every face's plane.
+  const double eps = 1e-9 * L.bounds.diagonal().norm();
+  bool convex = true;
+  for (const vd::Tri& t : L.tris) {
+    const Vec3 n = (t[1] - t[0]).cross(t[2] - t[0]).normalized();
+    const double d = n.dot(t[0]);
+    for (Eigen::Index v = 0; v < m.vertices.rows() && convex; ++v)
+      convex = n.dot(Vec3(m.vertices.row(v).transpose())) - d <= eps;
+    // Coplanar faces give one plane.
+    const Eigen::Vector4d pl(n.x(), n.y(), n.z(), d);
+    bool seen = false;
+    for (const Eigen::Vector4d& q : L.distance.planes) seen = seen || (q - pl).cwiseAbs().maxCoeff() <= 1e-12;
+    if (!seen) L.distance.planes.push_back(pl);
   }
-  vd::SceneModel& T = scene[0];
-  if (T.query->closed()) {
-    DistanceFieldOptions fo;
-    fo.cell = cell;
-    fo.band = band;
-    fo.threads = options.threads;
-    T.field = std::make_unique<DistanceField>(*T.query, fo);
-  }
-  if (occluded) {
-    Mesh occ = target;
-    std::vector<int> rows;
-    for (Eigen::Index f = 0; f < target.faces.rows(); ++f)
-      if (!free[f]) rows.push_back(static_cast<int>(f));
-    occ.faces.resize(static_cast<Eigen::Index>(rows.size()), 3);
-    for (std::size_t i = 0; i < rows.size(); ++i) occ.faces.row(static_cast<Eigen::Index>(i)) = target.faces.row(rows[i]);
-    occ.closed = false;
-    occluded_query = std::make_unique<SurfaceQuery>(occ);
-    DistanceFieldOptions fo;
-    fo.cell = cell;
-    fo.band = options.contact_gap + 0.25 * cell;
-    fo.region = occluded_bounds;
-    fo.threads = options.threads;
-    occluded_field = std::make_unique<DistanceField>(*occluded_query, fo);
-  }
+  L.distance.slack = 2.0 * L.query->surface_tolerance() + 4.0 * eps + 1e-12;
+  if (convex) return;
+  L.distance.planes.clear();
+  DistanceFieldOptions fo;
+  fo.cell = cell;
+  fo.band = band;
+  fo.threads = options.threads;
+  L.distance.field = std::make_unique<DistanceField>(*L.query, fo);
 }
 
 namespace {

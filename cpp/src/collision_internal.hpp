@@ -198,6 +198,7 @@ struct GraspChecker::Impl {
   bool field_touches_occluded(int l, const Pose& pose) const;
   /// Builds the distance fields (target, occluded faces, non-convex links).
   void build_fields();
+  void build_link_field(geometry_detail::LinkModel& link, double cell, double band);
   double field_seconds = 0.0;
   /// What one link at `pose` (target frame) does, without strings: `bad` when it penetrates the
   /// target beyond the tolerance, intersects or lies inside an obstacle, or touches occluded faces

@@ -495,10 +495,16 @@ std::size_t count_pairs(const Points& points, double d_max, const Mask& free, in
   return m;
 }
 
-double suggest_edge(const Mesh& mesh, double d_max, std::size_t max_pairs, const Mask& free_faces) {
+double suggest_edge(const Mesh& mesh, double d_max, std::size_t max_pairs, const Mask& free_faces, double min_edge) {
   check_d_max(d_max);
   if (max_pairs == 0) throw std::invalid_argument("max_pairs: expected at least 1, got 0");
-  return suggest_edge_from(mesh, d_max, max_pairs, free_faces, estimate_pairs(mesh, d_max, free_faces));
+  if (!std::isfinite(min_edge) || min_edge < 0.0)
+    throw std::invalid_argument("min_edge: expected a finite length >= 0 (m), got " + fmt(min_edge));
+  if (min_edge > 0.0) {
+    const UnitFacets f = tessellate(mesh, min_edge, free_faces);
+    if (count_pairs(f.points, d_max, f.free) <= max_pairs) return min_edge;
+  }
+  return std::max(min_edge, suggest_edge_from(mesh, d_max, max_pairs, free_faces, estimate_pairs(mesh, d_max, free_faces)));
 }
 
 TargetIndex build_target_index(const Mesh& mesh, double edge, const Mask& free_faces,

@@ -1,7 +1,11 @@
 // GraspPlanner (parameters, index, aligner, checker) and plan_samples (align -> pipeline -> grasps).
 #include <pairgrasp/planner.hpp>
 
+#include "thread_pool.hpp"
+
 #include <algorithm>
+#include <exception>
+#include <optional>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -171,7 +175,7 @@ PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& f
     s.d_max = span + edge;
   }
   check_target_scale(target, s.d_max);
-  if (o.edge <= 0.0) edge = std::max(edge, suggest_edge(target, s.d_max, o.max_pairs, free));
+  if (o.edge <= 0.0) edge = suggest_edge(target, s.d_max, o.max_pairs, free, edge);
   s.edge = edge;
   if (s.mode == ConstellationMode::Area) {
     if (o.spacing > 0.0) {
@@ -217,17 +221,35 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& target, const Mask& fre
   io.d_max = setup.d_max;
   io.max_pairs = options.max_pairs;
   io.threads = options.threads;
-  auto s = std::make_shared<State>(hand, target, free.size() ? free : Mask::Constant(target.faces.rows(), true),
-                                   options, setup, build_target_index(target, setup.edge, free, io));
-  AlignerOptions ao;
-  ao.max_poses = options.max_poses;
-  ao.threads = options.threads;
-  s->aligner = std::make_unique<Aligner>(std::make_shared<const PairIndex>(s->index.index), ao);
   CheckOptions co;
   co.depth_tolerance = setup.depth_tolerance;
   co.contact_gap = options.gap;
   co.threads = options.threads;
-  s->checker = std::make_unique<GraspChecker>(hand, target, free, obstacles, co);
+  // The pair index and the checker's fields are built at once; an error of the index is reported
+  // first, whichever finished first.
+  std::optional<TargetIndex> index;
+  std::unique_ptr<GraspChecker> checker;
+  std::exception_ptr errors[2];
+  detail::parallel_for(2, options.threads, [&](std::size_t k) {
+    try {
+      if (k == 0) {
+        index.emplace(build_target_index(target, setup.edge, free, io));
+      } else {
+        checker = std::make_unique<GraspChecker>(hand, target, free, obstacles, co);
+      }
+    } catch (...) {
+      errors[k] = std::current_exception();
+    }
+  });
+  for (const std::exception_ptr& e : errors)
+    if (e) std::rethrow_exception(e);
+  auto s = std::make_shared<State>(hand, target, free.size() ? free : Mask::Constant(target.faces.rows(), true),
+                                   options, setup, std::move(*index));
+  AlignerOptions ao;
+  ao.max_poses = options.max_poses;
+  ao.threads = options.threads;
+  s->aligner = std::make_unique<Aligner>(std::make_shared<const PairIndex>(s->index.index), ao);
+  s->checker = std::move(checker);
   s->reference = torque_reference(target);
   s->seconds = seconds_since(t0);
   state_ = std::move(s);

@@ -392,6 +392,11 @@ TEST(SuggestEdge, FinestEdgeThatFitsTheBudget) {
   EXPECT_GT(count_pairs(finer.points, 0.2, finer.free), budget);
   EXPECT_THROW(suggest_edge(m, 0.0, budget), std::invalid_argument);
   EXPECT_THROW(suggest_edge(m, 0.2, 0), std::invalid_argument);
+  EXPECT_THROW(suggest_edge(m, 0.2, budget, Mask(), -0.001), std::invalid_argument);
+  EXPECT_THROW(suggest_edge(m, 0.2, budget, Mask(), NAN), std::invalid_argument);
+  // A finest edge wanted: kept when it fits (counted), otherwise the budget decides.
+  EXPECT_EQ(suggest_edge(m, 0.2, budget, Mask(), 1.2 * edge), 1.2 * edge);
+  EXPECT_DOUBLE_EQ(suggest_edge(m, 0.2, budget, Mask(), edge / 1.05), edge);
 
   PairIndexOptions o;
   o.d_max = 0.2;

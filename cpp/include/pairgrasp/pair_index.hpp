@@ -83,9 +83,13 @@ std::size_t count_pairs(const Points& points, double d_max, const Mask& free = M
 /// free_faces) gives no more than `max_pairs` stored pairs with d <= d_max. The pair count is
 /// first estimated from the area (facets are about (sqrt(3)/2) edge^2 each and the fraction of
 /// facet pairs within d_max is measured on a coarse tessellation), then checked by tessellating
-/// and counting, refining the edge until the count fits.
-/// Throws std::invalid_argument for d_max <= 0, max_pairs == 0 or a mask of the wrong size.
-double suggest_edge(const Mesh& mesh, double d_max, std::size_t max_pairs, const Mask& free_faces = Mask());
+/// and counting, refining the edge until the count fits. A positive `min_edge` (metres) is the
+/// finest edge wanted: it is counted first and returned at once when its pairs fit, and the
+/// result is never finer than it.
+/// Throws std::invalid_argument for d_max <= 0, max_pairs == 0, a negative or non-finite min_edge
+/// or a mask of the wrong size.
+double suggest_edge(const Mesh& mesh, double d_max, std::size_t max_pairs, const Mask& free_faces = Mask(),
+                    double min_edge = 0.0);
 
 /// A target ready for alignment: its unit facets and their pair index.
 struct TargetIndex {
