@@ -375,6 +375,12 @@ GraspChecker::Impl::LinkState GraspChecker::Impl::link_state(int l, const Pose& 
   return out;
 }
 
+bool GraspChecker::Impl::pruned(const Pose& wrist, const std::vector<Pose>& link_poses) const {
+  for (std::size_t l = 0; l < links.size(); ++l)
+    if (link_state(static_cast<int>(l), wrist * link_poses[l]).bad) return true;
+  return false;
+}
+
 std::vector<Pose> GraspChecker::Impl::target_frame_poses(const Pose& wrist, const Eigen::VectorXd& dofs) const {
   check_rigid(wrist, "wrist");
   std::vector<Pose> poses = hand.link_poses(dofs);

@@ -209,6 +209,9 @@ struct GraspChecker::Impl {
     double depth = 0.0;
   };
   LinkState link_state(int l, const Pose& pose) const;
+  /// Whether the hand at `wrist` with its links at `link_poses` (wrist frame) would be pruned: the
+  /// verdict of check(), without its report (stops at the first bad link).
+  bool pruned(const Pose& wrist, const std::vector<Pose>& link_poses) const;
   /// Full check at link poses already in the target frame (depths exact unless `exact_depth` is
   /// false: see GraspChecker::check).
   CheckResult check_poses(const std::vector<Pose>& poses, bool exact_depth = true) const;

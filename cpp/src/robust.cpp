@@ -1,6 +1,7 @@
 // Robust grasp quality: force closure and epsilon under sampled wrist and friction perturbations.
 #include <pairgrasp/robust.hpp>
 
+#include "collision_internal.hpp"
 #include "random_internal.hpp"
 #include "thread_pool.hpp"
 
@@ -69,12 +70,13 @@ RobustQuality robust_quality(const GraspChecker& checker, const Pose& wrist, con
   grasp_quality(Points(0, 3), Points(0, 3), eo.reference->center, eo.reference->radius, eo.quality);
   const std::size_t n = poses.size();
   const Eigen::Vector3d approach = checker.hand().approach();
+  const std::vector<Pose> links = checker.hand().link_poses(start_dofs, true);
   std::vector<GraspQuality> q(n);
   std::vector<char> pruned(n, 0), backed(n, 0);
   detail::parallel_for(n, options.threads, [&](std::size_t k) {
     // A perturbed hand that would start inside the target stops where it first touches on its way in.
     Pose w = poses[k];
-    for (int i = 0; i < kBackoffSteps && checker.check(w, start_dofs).pruned; ++i) {
+    for (int i = 0; i < kBackoffSteps && checker.impl().pruned(w, links); ++i) {
       w.translation() -= kBackoffStep * (w.linear() * approach);
       backed[k] = 1;
     }
