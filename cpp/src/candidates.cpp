@@ -375,12 +375,7 @@ GraspQuality CandidatePipeline::score_reduced(const Contacts& k, double threshol
   QualityOptions qo = options_.evaluate.quality;
   qo.open_volume = false;
   qo.min_epsilon = threshold;
-  const std::vector<int> keep = reduce_contacts(k.points, k.links, options_.evaluate.contacts_per_link);
-  Points pts(static_cast<Eigen::Index>(keep.size()), 3), nrm(static_cast<Eigen::Index>(keep.size()), 3);
-  for (std::size_t j = 0; j < keep.size(); ++j) {
-    pts.row(static_cast<Eigen::Index>(j)) = k.points.row(keep[j]);
-    nrm.row(static_cast<Eigen::Index>(j)) = k.normals.row(keep[j]);
-  }
+  const auto [pts, nrm] = reduced_contacts(k, options_.evaluate.contacts_per_link);
   return grasp_quality(pts, nrm, reference_.center, reference_.radius, qo);
 }
 

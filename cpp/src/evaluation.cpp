@@ -58,13 +58,18 @@ std::vector<int> reduce_contacts(const Points& points, const std::vector<int>& l
   return keep;
 }
 
-namespace {
-
-Points rows_of(const Points& m, const std::vector<int>& rows) {
-  Points out(static_cast<Eigen::Index>(rows.size()), 3);
-  for (std::size_t i = 0; i < rows.size(); ++i) out.row(static_cast<Eigen::Index>(i)) = m.row(rows[i]);
+std::pair<Points, Points> reduced_contacts(const Contacts& contacts, int per_link) {
+  const std::vector<int> keep = reduce_contacts(contacts.points, contacts.links, per_link);
+  std::pair<Points, Points> out{Points(static_cast<Eigen::Index>(keep.size()), 3),
+                                Points(static_cast<Eigen::Index>(keep.size()), 3)};
+  for (std::size_t i = 0; i < keep.size(); ++i) {
+    out.first.row(static_cast<Eigen::Index>(i)) = contacts.points.row(keep[i]);
+    out.second.row(static_cast<Eigen::Index>(i)) = contacts.normals.row(keep[i]);
+  }
   return out;
 }
+
+namespace {
 
 GraspEvaluation evaluate_checked(const GraspChecker& checker, const Pose& wrist, const Eigen::VectorXd& dofs,
                                  const EvaluateOptions& options, const TorqueReference& ref) {
@@ -98,9 +103,7 @@ GraspEvaluation evaluate_checked(const GraspChecker& checker, const Pose& wrist,
   if (options.contacts_per_link > 0 && points.rows() > 0) {
     // A search, which needs no hull volume of a grasp that is not force-closure.
     q.open_volume = false;
-    const std::vector<int> k = reduce_contacts(points, e.contacts.links, options.contacts_per_link);
-    points = rows_of(e.contacts.points, k);
-    normals = rows_of(e.contacts.normals, k);
+    std::tie(points, normals) = reduced_contacts(e.contacts, options.contacts_per_link);
   }
   if (options.score) {
     e.quality = grasp_quality(points, normals, ref.center, ref.radius, q);

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace pairgrasp {
@@ -37,6 +38,10 @@ TorqueReference torque_reference(const Mesh& mesh);
 /// from them is a lower bound of the full epsilon and force closure is never claimed wrongly.
 /// Throws std::invalid_argument for `per_link` < 1 or a `links` size other than the points'.
 std::vector<int> reduce_contacts(const Points& points, const std::vector<int>& links, int per_link);
+
+/// The contact points and target normals reduce_contacts() keeps of `contacts`, in its order:
+/// (K,3) each. Throws as reduce_contacts().
+std::pair<Points, Points> reduced_contacts(const Contacts& contacts, int per_link);
 
 /// Options of evaluate_grasp().
 struct EvaluateOptions {
