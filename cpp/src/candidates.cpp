@@ -444,29 +444,39 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     if (static_cast<int>(chosen.size()) >= pool) break;
   }
 
-  // The returned grasps are scored again with every contact (joggled hulls first: epsilon and
-  // volume within ~1e-9 relative of the exact hull's, at about half the cost in 6-D).
+  // The returned grasps are scored again with every contact, on exact hulls. The robust ranking
+  // orders its pool by the robust measures and then by the search's epsilon, so that only the `top`
+  // it returns need the scoring; the epsilon ranking orders by the scoring's epsilon.
   QualityOptions full = options_.evaluate.quality;
   full.open_volume = true;
   full.volume = true;
-  full.joggle = true;
-  detail::parallel_for(chosen.size(), options_.threads, [&](std::size_t i) {
-    const GraspEvaluation& e = chosen[i].evaluation;
-    chosen[i].quality = options_.evaluate.contacts_per_link > 0 && e.contacts.points.rows() > 0
-                            ? grasp_quality(e.contacts.points, e.contacts.normals, reference_.center, reference_.radius, full)
-                            : e.quality;
-  });
-  const auto t_robust = Clock::now();
-  if (robust) score_robust(chosen, options);
-  const double robust_seconds = robust ? seconds_since(t_robust) : 0.0;
+  full.joggle = false;
+  auto rescore = [&](std::vector<RankedGrasp>& grasps) {
+    detail::parallel_for(grasps.size(), options_.threads, [&](std::size_t i) {
+      const GraspEvaluation& e = grasps[i].evaluation;
+      grasps[i].quality = options_.evaluate.contacts_per_link > 0 && e.contacts.points.rows() > 0
+                              ? grasp_quality(e.contacts.points, e.contacts.normals, reference_.center,
+                                              reference_.radius, full)
+                              : e.quality;
+    });
+  };
+  double robust_seconds = 0.0;
+  if (robust) {
+    const auto t_robust = Clock::now();
+    score_robust(chosen, options);
+    robust_seconds = seconds_since(t_robust);
+  } else {
+    rescore(chosen);
+  }
   std::vector<std::size_t> order(chosen.size());
   std::iota(order.begin(), order.end(), 0);
   auto final_key = [&](std::size_t i) {
     const Candidate& c = evaluated_[chosen[i].candidate].candidate;
     const RobustQuality none;
     const RobustQuality& r = chosen[i].robust ? *chosen[i].robust : none;
-    return std::make_tuple(r.force_closure_probability, r.epsilon, chosen[i].quality.force_closure,
-                           chosen[i].quality.epsilon, c.quality, c.votes, -static_cast<long>(i));
+    const GraspQuality& q = robust ? chosen[i].evaluation.quality : chosen[i].quality;
+    return std::make_tuple(r.force_closure_probability, r.epsilon, q.force_closure, q.epsilon, c.quality, c.votes,
+                           -static_cast<long>(i));
   };
   std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return final_key(a) > final_key(b); });
   std::vector<RankedGrasp> out;
@@ -474,6 +484,7 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     if (static_cast<int>(out.size()) >= options.top) break;
     out.push_back(std::move(chosen[i]));
   }
+  if (robust) rescore(out);
   if (timings) {
     timings->robust = robust_seconds;
     timings->fine_tune = seconds_since(t_start) - robust_seconds;

@@ -115,7 +115,8 @@ struct RankedGrasp {
 
 /// How finish() orders the grasps.
 enum class Ranking {
-  /// By robust_quality(): probability of force closure, then the robust epsilon, then as Epsilon.
+  /// By robust_quality(): probability of force closure, then the robust epsilon, then force
+  /// closure and epsilon as the search scored them (reduced contacts), then as Epsilon.
   Robust,
   /// The paper's: force closure, then epsilon from every contact, then alignment quality, then votes.
   Epsilon,

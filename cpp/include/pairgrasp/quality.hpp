@@ -53,7 +53,7 @@ struct QualityOptions {
   bool volume = true;
   /// true: qhull's joggled input ("QJ") first, the exact options only where it fails: about twice
   /// as fast in 6-D, epsilon within ~1e-9 relative of the exact hull's (a search that ranks
-  /// candidates sets it, and the planner scores the grasps it returns with it). Deterministic.
+  /// candidates sets it; the grasps it returns are scored again without it). Deterministic.
   bool joggle = false;
   /// A caller that only wants grasps whose epsilon reaches this value (dimensionless, >= 0) skips
   /// the hull of any grasp whose epsilon provably lies below it: first by epsilon_upper_bound(),
