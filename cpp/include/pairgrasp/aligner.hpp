@@ -27,6 +27,20 @@
 ///     into hashed bins of cell position_tolerance (at most `position_capacity` per cluster),
 ///     merged the same way (Euclidean distance).
 ///
+/// Pre-filter (AlignerOptions::prefilter, on by default; needs min_agreement >= 2). A candidate
+/// votes only if it satisfies all three pairings A_k -> B_k of its order within the chord
+/// c = 2 sin(tau/2). A rotation preserves dot and triple products, so that requires, for the
+/// order's pairings, |A_i.A_j - B_i.B_j| <= 2c (for i, j the two normals and the line: phi and
+/// the two individual beta angles, where the index's feature holds only their difference) and
+/// |det(A_0, A_1, A_2) - det(B_0, B_1, B_2)| <= c(1+c)^2 + c(1+c) + c (the pair's handedness:
+/// a mirror image matches every angle but no rotation). The target side is the index's
+/// pair_geometry(), computed once per stored pair; the gripper side once per gripper pair. A
+/// correspondence failing the conditions for both orders (with a margin of 2e-4 for the int16
+/// storage) is counted as the solver would count it (underdetermined when the stored
+/// collinearity sine is clearly at most sin(collinear_tolerance), no_agreement when clearly
+/// above; near the threshold it is solved) and is not solved: the votes, in the same order,
+/// and hence the poses are exactly those without the pre-filter.
+///
 /// Each (rotation, position) cluster becomes a pose. Its rotation is the vote-weighted mean
 /// quaternion of its votes (refined once: votes farther than angle_tolerance from the mean are
 /// dropped and the mean recomputed), its translation t = mean(P_T) - R.mean(P_G) over the kept
@@ -76,6 +90,10 @@ struct AlignerOptions {
   int min_agreement = 3;
   int min_votes = 3;             ///< poses with fewer votes are not returned
   int threads = 0;               ///< worker threads for one align(); 0: all cores
+  /// Reject correspondences that cannot vote before solving them (see "Pre-filter" in the file
+  /// comment). It never changes the result: poses and every count but `prefiltered` are the same
+  /// with it off. Off exists only to measure the solver-only path for comparison (bench_aligner).
+  bool prefilter = true;
 };
 
 /// One aligned pose of the gripper: p_T = rotation * p_G + translation.
@@ -104,6 +122,9 @@ struct AlignStats {
   std::size_t correspondences_used = 0; ///< after thinning to max_correspondences
   std::size_t underdetermined = 0;      ///< correspondences the solver found underdetermined
   std::size_t no_agreement = 0;         ///< correspondences with no rigid candidate
+  /// Of the underdetermined and no_agreement correspondences, those the pre-filter rejected
+  /// without a pose solve (0 with AlignerOptions::prefilter off).
+  std::size_t prefiltered = 0;
   std::size_t candidates = 0;           ///< solver candidates that voted (agreement >= min_agreement)
   std::size_t rotation_votes = 0;       ///< votes cast in pass 2 (sum of their agreement)
   std::size_t dropped_rotation_votes = 0;  ///< votes lost because every rotation bin was taken
@@ -115,10 +136,22 @@ struct AlignStats {
   bool saturated = false;  ///< some votes or correspondences were dropped (capacity reached)
 };
 
-/// Poses best first (Q_A, then votes) and the counts.
+/// Wall-clock milliseconds of one alignment's phases (not deterministic, unlike everything else
+/// in AlignResult; with several threads a phase's time is that of its parallel section).
+struct AlignTimes {
+  double query = 0;      ///< pass 1: gripper pair features and hierarchy queries
+  double prefilter = 0;  ///< pass 1: pre-filter, sorting and thinning into the correspondence list
+  double solve = 0;      ///< pass 2: pose solves of the correspondences
+  double rotation_votes = 0;  ///< pass 2: votes into the rotation bins
+  double positions = 0;  ///< pass 3: rotation clusters, position votes and clusters, poses
+  double total() const { return query + prefilter + solve + rotation_votes + positions; }
+};
+
+/// Poses best first (Q_A, then votes), the counts and the phase times.
 struct AlignResult {
   std::vector<AlignedPose> poses;
   AlignStats stats;
+  AlignTimes times;
 };
 
 /// Aligns gripper constellations with one target. Thread-safe: align() may be called from
