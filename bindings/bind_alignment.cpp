@@ -285,7 +285,7 @@ correspondence (same results, slower): it exists only to measure the pre-filter'
       .def(
           "align",
           [](const Aligner& a, const pyb::object& points_in, const pyb::object& normals_in,
-             bool return_stats) -> pyb::object {
+             bool return_stats, bool return_times) -> pyb::object {
             const Points points = as_points(points_in, "points");
             const Points normals = as_points(normals_in, "normals");
             AlignResult r;
@@ -295,15 +295,26 @@ correspondence (same results, slower): it exists only to measure the pre-filter'
             }
             pyb::list poses;
             for (auto& p : r.poses) poses.append(pyb::cast(std::move(p)));
+            if (return_times) {
+              pyb::dict t;
+              t["query"] = r.times.query;
+              t["prefilter"] = r.times.prefilter;
+              t["solve"] = r.times.solve;
+              t["rotation_votes"] = r.times.rotation_votes;
+              t["positions"] = r.times.positions;
+              if (return_stats) return pyb::make_tuple(poses, pyb::cast(r.stats), t);
+              return pyb::make_tuple(poses, t);
+            }
             if (return_stats) return pyb::make_tuple(poses, pyb::cast(r.stats));
             return std::move(poses);
           },
           R"doc(
 Aligns one constellation: points (P, 3) in the wrist frame (metres) and normals (P, 3) as stored on
 the gripper (pointing out of the finger surface). Returns a list of AlignedPose, best first, or
-(poses, AlignStats) with return_stats=True. Releases the GIL.
+(poses, AlignStats) with return_stats=True. return_times=True appends a dict of the phases' wall
+milliseconds (query, prefilter, solve, rotation_votes, positions; not deterministic). Releases the GIL.
 )doc",
-          "points"_a, "normals"_a, "return_stats"_a = false)
+          "points"_a, "normals"_a, "return_stats"_a = false, "return_times"_a = false)
       .def(
           "align_many",
           [](const Aligner& a, const pyb::sequence& constellations, bool return_stats) {

@@ -10,8 +10,10 @@
 ///     e = pair_feature(p_a, -n_a, p_b, -n_b) (gripper normals flipped) is queried with the
 ///     tolerance box; every stored (free) target pair inside is a correspondence. Gripper pairs
 ///     whose two normals lie along their connecting line (antipodal: the roll is free) are
-///     skipped. More than `max_correspondences` are thinned evenly (every k-th is kept).
-///  2. Rotation votes: each correspondence's candidates (solve_pair_pose) with agreement a >=
+///     skipped. More than `max_correspondences` are thinned evenly (every k-th is kept). The
+///     pre-filter (below) drops those that cannot vote.
+///  2. Rotation votes: each correspondence's candidates (the six-pairing versor solver of
+///     solve_pair_pose(), called without its argument checks) with agreement a >=
 ///     `min_agreement` (default 3: all three pairings agree) cast a votes into hashed bins over unit quaternions (w >= 0; cell
 ///     angle_tolerance / 2 in each of the four coordinates, i.e. about angle_tolerance in rotation
 ///     angle; a rotation near a half turn is looked up on both sides). At most `capacity` bins are
