@@ -53,8 +53,10 @@ struct GripperAngles {
   bool usable = false;  // the pre-filter may reject this pair's correspondences
 };
 
-// Pre-filter verdicts.
-enum : std::uint8_t { kSolve = 0, kUnderdetermined = 1, kNoAgreement = 2 };
+// Pre-filter verdicts: solve both point orders, only order 0, only order 1, or reject (counted as
+// the solver would count it).
+enum : std::uint8_t { kSolve = 3, kOrder0 = 1, kOrder1 = 2, kUnderdetermined = 4, kNoAgreement = 8 };
+constexpr std::uint8_t kOrders = 3;  // a verdict & kOrders != 0: solve those orders
 
 // The pre-filter's constants for one alignment.
 struct Prefilter {
@@ -77,8 +79,10 @@ inline std::uint8_t prefilter_verdict(const Prefilter& pf, const GripperAngles& 
   const float phi = g[0] * ang, bi = g[1] * ang, bj = g[2] * ang, tri = g[3] * inv;
   const float m = pf.angle_margin;
   if (std::abs(ga.phi - phi) <= m && std::abs(ga.tri - tri) <= pf.tri_margin) {
-    if (std::abs(ga.b0 - bi) <= m && std::abs(ga.b1 - bj) <= m) return kSolve;                  // order 0
-    if (std::abs(ga.b0 - (kPiF - bj)) <= m && std::abs(ga.b1 - (kPiF - bi)) <= m) return kSolve;  // order 1
+    std::uint8_t orders = 0;
+    if (std::abs(ga.b0 - bi) <= m && std::abs(ga.b1 - bj) <= m) orders |= kOrder0;
+    if (std::abs(ga.b0 - (kPiF - bj)) <= m && std::abs(ga.b1 - (kPiF - bi)) <= m) orders |= kOrder1;
+    if (orders) return orders;
   }
   // As the solver would count it: underdetermined when the target side is collinear,
   // max(|n_i x n_j|, |n_i x u|, |n_j x u|) <= sin(collinear_tolerance), i.e. when each of the
@@ -101,6 +105,7 @@ struct Vote {
 struct Correspondence {
   std::uint32_t gripper_pair;
   std::uint32_t target_pair;
+  std::uint8_t orders = kSolve;  // the point orders that can give a voting candidate
 };
 
 Quaterniond vote_quaternion(const Vote& v) {
@@ -311,7 +316,7 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
       std::size_t keep = 0;
       for (std::size_t k = 0; k < h.size(); ++k) {
         const std::uint8_t v = verdict(g, h[k]);
-        if (v == kSolve)
+        if (v & kOrders)
           h[keep++] = h[k];
         else if (v == kUnderdetermined)
           ++g_under[g];
@@ -330,18 +335,19 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
       st.underdetermined += g_under[g];
       st.no_agreement += g_none[g];
       st.prefiltered += g_under[g] + g_none[g];
-      const bool filter = pf.on && stride > 1 && gangles[g].usable;
+      const bool filter = pf.on && gangles[g].usable;
       for (auto t : hits[g]) {
         if (k++ % stride != 0) continue;
-        if (filter) {
-          const std::uint8_t v = verdict(g, t);
-          if (v != kSolve) {
+        std::uint8_t v = kSolve;
+        if (filter) {  // without thinning, hits[g] holds only survivors: v gives their orders
+          v = verdict(g, t);
+          if (!(v & kOrders)) {
             ++(v == kUnderdetermined ? st.underdetermined : st.no_agreement);
             ++st.prefiltered;
             continue;
           }
         }
-        corr.push_back({static_cast<std::uint32_t>(g), t});
+        corr.push_back({static_cast<std::uint32_t>(g), t, v});
       }
       std::vector<std::uint32_t>().swap(hits[g]);
     }
@@ -395,7 +401,7 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
       const int status = detail::solve_versors(gp.row(g.a).transpose(), gp.row(g.b).transpose(),
                                                gn.row(g.a).transpose(), gn.row(g.b).transpose(), tp.row(i).transpose(),
                                                tp.row(j).transpose(), tn.row(i).transpose(), tn.row(j).transpose(),
-                                               vset, cand, n);
+                                               vset, cand, n, corr[k].orders);
       if (status == 1) ++chunk_under[ch];
       if (status == 2) ++chunk_none[ch];
       for (int c = 0; c < n; ++c) {

@@ -375,7 +375,7 @@ VersorSettings versor_settings(double angle_tolerance, double collinear_toleranc
 int solve_versors(const Vector3d& gp0, const Vector3d& gp1, const Vector3d& gn0, const Vector3d& gn1,
                   const Vector3d& tp0, const Vector3d& tp1, const Vector3d& tn0, const Vector3d& tn1,
                   const VersorSettings& settings, std::array<VersorCandidate, kMaxVersorCandidates>& out,
-                  int& count) {
+                  int& count, unsigned orders) {
   count = 0;
   // Gripper normals are flipped: at a contact the target normal opposes the finger's.
   const Vector3d a0 = -gn0, a1 = -gn1;
@@ -396,6 +396,7 @@ int solve_versors(const Vector3d& gp0, const Vector3d& gp1, const Vector3d& gn0,
   std::array<Ranked, 2 * kMaxHyp> ranked;
   int nr = 0;
   for (int order = 0; order < 2; ++order) {
+    if (!(orders & (1u << order))) continue;
     std::array<Pairing, 3> p;
     p[0] = {a0, order == 0 ? tn0 : tn1, true};
     p[1] = {a1, order == 0 ? tn1 : tn0, true};

@@ -33,9 +33,11 @@ VersorSettings versor_settings(double angle_tolerance, double collinear_toleranc
 
 /// Status as PairPoseStatus: 0 ok, 1 underdetermined, 2 no agreement. Candidates best first
 /// (written to out[0..n)), n returned in `count`. Arguments as solve_pair_pose(), unchecked.
+/// `orders` (bit 0: order 0, bit 1: order 1) skips the point orders the caller has proven to give
+/// no candidate (the Aligner's pre-filter); the result is then the same as with both.
 int solve_versors(const Eigen::Vector3d& gp0, const Eigen::Vector3d& gp1, const Eigen::Vector3d& gn0,
                   const Eigen::Vector3d& gn1, const Eigen::Vector3d& tp0, const Eigen::Vector3d& tp1,
                   const Eigen::Vector3d& tn0, const Eigen::Vector3d& tn1, const VersorSettings& settings,
-                  std::array<VersorCandidate, kMaxVersorCandidates>& out, int& count);
+                  std::array<VersorCandidate, kMaxVersorCandidates>& out, int& count, unsigned orders = 3);
 
 }  // namespace pairgrasp::detail
