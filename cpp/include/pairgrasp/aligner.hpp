@@ -40,8 +40,9 @@
 /// correspondence failing the conditions for both orders (with a margin of 2e-4 for the int16
 /// storage) is counted as the solver would count it (underdetermined when the stored
 /// collinearity sine is clearly at most sin(collinear_tolerance), no_agreement when clearly
-/// above; near the threshold it is solved) and is not solved: the votes, in the same order,
-/// and hence the poses are exactly those without the pre-filter.
+/// above; near the threshold it is solved) and is not solved; of one that passes, only the
+/// point orders that meet the conditions are solved. The votes, in the same order, and hence
+/// the poses are exactly those without the pre-filter.
 ///
 /// Each (rotation, position) cluster becomes a pose. Its rotation is the vote-weighted mean
 /// quaternion of its votes (refined once: votes farther than angle_tolerance from the mean are
