@@ -127,23 +127,36 @@ struct Summary {
   double ms_per_sample = 0;      // wall
   double cpu_ms_per_sample = 0;  // process CPU (one thread)
   double correspondences = 0;
+  double solved = 0;             // correspondences that reached the pose solver
+  double voted = 0;              // solver candidates that voted
   double poses = 0;
+  AlignTimes phases;             // mean per sample
 };
-std::map<std::string, Summary> summary;
+// Key: "<target> <mode>" -> [0] prefilter off (the solver-only path), [1] on (the default).
+std::map<std::string, std::map<int, Summary>> summary;
 
-void BM_Align(benchmark::State& state, const std::string& name, int mode) {
+void BM_Align(benchmark::State& state, const std::string& name, int mode, bool prefilter) {
   const Target& t = target(name);
   AlignerOptions o;
   o.threads = 1;
+  o.prefilter = prefilter;
   const Aligner aligner(t.index, o);
   const auto& cs = constellations(mode);
   std::size_t k = 0;
-  double corr = 0, poses = 0, n = 0;
+  double corr = 0, solved = 0, voted = 0, poses = 0, n = 0;
+  AlignTimes phases;
   const auto start = std::chrono::steady_clock::now();
   const std::clock_t cpu_start = std::clock();
   for (auto _ : state) {
     const auto r = aligner.align(cs[k].points, cs[k].normals);
     corr += static_cast<double>(r.stats.correspondences);
+    solved += static_cast<double>(r.stats.correspondences_used - r.stats.prefiltered);
+    voted += static_cast<double>(r.stats.candidates);
+    phases.query += r.times.query;
+    phases.prefilter += r.times.prefilter;
+    phases.solve += r.times.solve;
+    phases.rotation_votes += r.times.rotation_votes;
+    phases.positions += r.times.positions;
     poses += static_cast<double>(r.poses.size());
     n += 1;
     k = (k + 1) % cs.size();
@@ -155,7 +168,10 @@ void BM_Align(benchmark::State& state, const std::string& name, int mode) {
   state.counters["samples_P"] = static_cast<double>(cs[0].points.rows());
   state.counters["facets"] = static_cast<double>(t.facets);
   state.counters["pairs"] = static_cast<double>(t.index->size());
-  summary[name + (mode == 0 ? " per_link" : " area")] = {1e3 * secs / n, 1e3 * cpu_secs / n, corr / n, poses / n};
+  for (double* x : {&phases.query, &phases.prefilter, &phases.solve, &phases.rotation_votes, &phases.positions})
+    *x /= n;
+  summary[name + (mode == 0 ? " per_link" : " area")][prefilter ? 1 : 0] = {
+      1e3 * secs / n, 1e3 * cpu_secs / n, corr / n, solved / n, voted / n, poses / n, phases};
 }
 
 void BM_AlignMany(benchmark::State& state, const std::string& name, int mode) {
@@ -170,12 +186,15 @@ void BM_AlignMany(benchmark::State& state, const std::string& name, int mode) {
 
 int main(int argc, char** argv) {
   for (const auto& name : kTargets) {
-    benchmark::RegisterBenchmark(("BM_Align/" + name + "/per_link").c_str(), BM_Align, name, 0)
-        ->Unit(benchmark::kMillisecond)
-        ->MinTime(1.0);
-    benchmark::RegisterBenchmark(("BM_Align/" + name + "/area").c_str(), BM_Align, name, 1)
-        ->Unit(benchmark::kMillisecond)
-        ->Iterations(kSamples / 4);
+    for (bool pf : {false, true}) {
+      const std::string suffix = pf ? "" : "/no_prefilter";
+      benchmark::RegisterBenchmark(("BM_Align/" + name + "/per_link" + suffix).c_str(), BM_Align, name, 0, pf)
+          ->Unit(benchmark::kMillisecond)
+          ->MinTime(1.0);
+      benchmark::RegisterBenchmark(("BM_Align/" + name + "/area" + suffix).c_str(), BM_Align, name, 1, pf)
+          ->Unit(benchmark::kMillisecond)
+          ->Iterations(kSamples / 4);
+    }
     benchmark::RegisterBenchmark(("BM_AlignMany/" + name + "/per_link").c_str(), BM_AlignMany, name, 0)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime()
@@ -186,15 +205,31 @@ int main(int argc, char** argv) {
   benchmark::RunSpecifiedBenchmarks();
   std::printf("\nAligner, one thread, Barrett hand (%u cores available), d_max %.3f m:\n",
               std::thread::hardware_concurrency(), hand_d_max());
-  std::printf("%-18s %8s %8s %10s %10s %12s %14s %8s\n", "target/mode", "P", "edge mm", "facets", "pairs",
-              "ms/sample", "cpu ms/sample", "corr/sample");
-  for (const auto& [key, s] : summary) {
+  std::printf("%-18s %4s %7s %7s %9s %7s %11s %7s %7s %10s %10s\n", "target/mode", "P", "edge mm", "facets",
+              "pairs", "B/pair", "corr/sample", "solved", "voted", "ms before", "ms now");
+  for (const auto& [key, by] : summary) {
     const Target& t = target(key.substr(0, key.find(' ')));
     const int mode = key.find("area") == std::string::npos ? 0 : 1;
-    std::printf("%-18s %8ld %8.2f %10ld %10zu %12.2f %14.2f %8.0f\n", key.c_str(),
+    const auto off = by.find(0), on = by.find(1);
+    const Summary& any = on != by.end() ? on->second : off->second;
+    std::printf("%-18s %4ld %7.2f %7ld %9zu %7.1f %11.0f %7.0f %7.0f", key.c_str(),
                 static_cast<long>(constellations(mode)[0].points.rows()), 1e3 * t.edge, t.facets, t.index->size(),
-                s.ms_per_sample, s.cpu_ms_per_sample, s.correspondences);
+                double(t.index->nbytes()) / double(t.index->size()), any.correspondences, any.solved, any.voted);
+    std::printf(" %10s", off != by.end() ? std::to_string(off->second.ms_per_sample).substr(0, 7).c_str() : "-");
+    std::printf(" %10s", on != by.end() ? std::to_string(on->second.ms_per_sample).substr(0, 7).c_str() : "-");
+    if (off != by.end() && on != by.end())
+      std::printf("  (x%.1f faster)", off->second.ms_per_sample / on->second.ms_per_sample);
+    std::printf("\n");
   }
+  std::printf("\n'before': AlignerOptions::prefilter off (every correspondence solved through solve_pair_pose);\n"
+              "'now': the default. B/pair: PairIndex::nbytes() / size() (pairs, features, geometry, tree, points).\n");
+  std::printf("\nPhases, ms per sample (AlignResult::times):\n%-18s %-7s %8s %9s %8s %9s %9s %8s\n", "target/mode",
+              "path", "query", "prefilter", "solve", "rot.votes", "positions", "total");
+  for (const auto& [key, by] : summary)
+    for (const auto& [pf, s] : by)
+      std::printf("%-18s %-7s %8.3f %9.3f %8.3f %9.3f %9.3f %8.3f\n", key.c_str(), pf ? "now" : "before",
+                  s.phases.query, s.phases.prefilter, s.phases.solve, s.phases.rotation_votes, s.phases.positions,
+                  s.phases.total());
   benchmark::Shutdown();
   return 0;
 }

@@ -147,7 +147,11 @@ def run_ppf(args) -> dict:
         t0 = time.perf_counter()
         index = pg.PairIndex(P, N, d_max=2 * radius + h)
         aligner = pg.Aligner(index)
-        methods = {"pairgrasp": {"train_s": time.perf_counter() - t0, "pairs": len(index)}}
+        methods = {"pairgrasp": {"train_s": time.perf_counter() - t0, "pairs": len(index), "aligner": aligner}}
+        if args.aligner_before:
+            # The same aligner with its pre-filter off (every correspondence solved): identical poses.
+            methods["pairgrasp, no prefilter"] = {"train_s": methods["pairgrasp"]["train_s"], "pairs": len(index),
+                                                  "aligner": pg.Aligner(index, prefilter=False)}
         for step in args.ppf_step:
             t0 = time.perf_counter()
             det = cv2.ppf_match_3d_PPF3DDetector(step, args.ppf_distance_step)
@@ -162,10 +166,12 @@ def run_ppf(args) -> dict:
             sub = farthest_points(patch.scene_points, args.query_points, rng)
             for key, m in methods.items():
                 t0 = time.perf_counter()
-                if key == "pairgrasp":
+                if key.startswith("pairgrasp"):
                     # The aligner treats its query as a gripper: normals out of the finger, so the
                     # patch's outward normals are flipped.
-                    poses = aligner.align(patch.scene_points[sub], -patch.scene_normals[sub])
+                    poses, phases = m["aligner"].align(patch.scene_points[sub], -patch.scene_normals[sub],
+                                                       return_times=True)
+                    m.setdefault("phases", []).append(phases)
                     est = (np.array(poses[0].rotation), np.array(poses[0].translation)) if len(poses) else None
                 else:
                     found = m["detector"].match(scene, args.ppf_scene_fraction, step)
@@ -186,10 +192,13 @@ def run_ppf(args) -> dict:
                 m["refined"].append(pose_errors(patch, *ref, query))
         for key, m in methods.items():
             m.pop("detector", None)
+            m.pop("aligner", None)
             out = {"train_s": m["train_s"], "median_query_s": float(np.median(m["time"])),
                    "median_icp_s": float(np.median(m["icp_time"]))}
             if "pairs" in m:
                 out["pairs"] = m["pairs"]
+            if "phases" in m:  # median ms of each aligner phase over the patches
+                out["phases_ms"] = {k: float(np.median([p[k] for p in m["phases"]])) for k in m["phases"][0]}
             for stage in ("raw", "refined"):
                 e = np.array(m[stage])
                 ok = (e[:, 0] < args.max_rotation) & (e[:, 1] < args.max_translation_edges * h)
@@ -227,6 +236,18 @@ def ppf_table(res, args) -> str:
                      f"{1e3 * np.median([m['median_query_s'] for m in ms]):.0f} | "
                      f"{1e3 * np.median([m['median_icp_s'] for m in ms]):.0f} | "
                      f"{sum(m['train_s'] for m in ms):.1f} |")
+    if any("phases_ms" in m for m in res["rows"][0]["methods"].values()):
+        lines.append("")
+        lines.append("Aligner phases, median ms over each target's patches (AlignResult times):")
+        lines.append("")
+        lines.append("| target | method | query | prefilter | solve | rotation votes | positions |")
+        lines.append("|---|---|---|---|---|---|---|")
+        for row in res["rows"]:
+            for key, m in row["methods"].items():
+                if "phases_ms" in m:
+                    p = m["phases_ms"]
+                    lines.append(f"| {row['target']} | {key} | {p['query']:.1f} | {p['prefilter']:.1f} | "
+                                 f"{p['solve']:.1f} | {p['rotation_votes']:.1f} | {p['positions']:.1f} |")
     return "\n".join(lines)
 
 
@@ -482,6 +503,8 @@ def main(argv=None) -> int:
     g.add_argument("--noise", type=float, default=0.2, help="position noise sigma / edge")
     g.add_argument("--normal-noise", type=float, default=0.02, help="normal noise sigma (per component)")
     g.add_argument("--query-points", type=int, default=8, help="patch points the aligner aligns")
+    g.add_argument("--aligner-before", action="store_true",
+                   help="also time the aligner with its pre-filter off (same poses) in the same run")
     g.add_argument("--ppf-step", type=float, nargs="+", default=[0.1, 0.08],
                    help="relativeSamplingStep values of the detector")
     g.add_argument("--ppf-distance-step", type=float, default=0.05, help="relativeDistanceStep")

@@ -88,7 +88,7 @@ std::string stats_repr(const AlignStats& s) {
   std::ostringstream o;
   o << "AlignStats(gripper_pairs=" << s.gripper_pairs << ", collinear_pairs=" << s.collinear_pairs
     << ", correspondences=" << s.correspondences << ", correspondences_used=" << s.correspondences_used
-    << ", candidates=" << s.candidates << ", rotation_votes=" << s.rotation_votes
+    << ", prefiltered=" << s.prefiltered << ", candidates=" << s.candidates << ", rotation_votes=" << s.rotation_votes
     << ", dropped_rotation_votes=" << s.dropped_rotation_votes << ", rotation_bins=" << s.rotation_bins
     << ", position_votes=" << s.position_votes << ", dropped_position_votes=" << s.dropped_position_votes
     << ", position_bins=" << s.position_bins << ", saturated=" << (s.saturated ? "True" : "False") << ")";
@@ -212,6 +212,8 @@ non-rigid one returns an empty list; solve_pair_pose_status() says which.
       .def_readonly("correspondences_used", &AlignStats::correspondences_used, "after thinning")
       .def_readonly("underdetermined", &AlignStats::underdetermined)
       .def_readonly("no_agreement", &AlignStats::no_agreement)
+      .def_readonly("prefiltered", &AlignStats::prefiltered,
+                    "of underdetermined and no_agreement, those rejected before the pose solve")
       .def_readonly("candidates", &AlignStats::candidates, "solver candidates that voted")
       .def_readonly("rotation_votes", &AlignStats::rotation_votes)
       .def_readonly("dropped_rotation_votes", &AlignStats::dropped_rotation_votes)
@@ -231,13 +233,14 @@ correspondences, rotation votes, position votes). Poses come best first by Q_A.
 Aligner(index, tolerance=None, angle_tolerance=None, position_tolerance=None, ...): tolerances
 left None are derived from the index spacing h: tolerance (d, phi, beta) = (0.5 h, 0.1, 0.1),
 angle_tolerance = 4 degrees, position_tolerance = 0.5 h. capacity bounds the rotation bins
-(a full accumulator drops new bins and reports `saturated`).
+(a full accumulator drops new bins and reports `saturated`). prefilter=False solves every
+correspondence (same results, slower): it exists only to measure the pre-filter's gain.
 )doc")
       .def(pyb::init([](const PairIndex& index, const pyb::object& tolerance, const pyb::object& angle_tolerance,
                         const pyb::object& position_tolerance, const pyb::object& collinear_tolerance,
                         std::size_t capacity, std::size_t position_capacity, std::size_t max_correspondences,
                         int rotation_clusters, int positions_per_rotation, int max_poses, int min_agreement,
-                        int min_votes, int threads) {
+                        int min_votes, int threads, bool prefilter) {
              AlignerOptions o;
              if (!tolerance.is_none()) {
                std::vector<double> tol;
@@ -266,6 +269,7 @@ angle_tolerance = 4 degrees, position_tolerance = 0.5 h. capacity bounds the rot
              o.min_agreement = min_agreement;
              o.min_votes = min_votes;
              o.threads = threads;
+             o.prefilter = prefilter;
              // The PairIndex is a handle to shared, immutable data: the copy is O(1).
              return Aligner(std::make_shared<const PairIndex>(index), o);
            }),
@@ -276,11 +280,12 @@ angle_tolerance = 4 degrees, position_tolerance = 0.5 h. capacity bounds the rot
            "rotation_clusters"_a = AlignerOptions().rotation_clusters,
            "positions_per_rotation"_a = AlignerOptions().positions_per_rotation,
            "max_poses"_a = AlignerOptions().max_poses, "min_agreement"_a = AlignerOptions().min_agreement,
-           "min_votes"_a = AlignerOptions().min_votes, "threads"_a = AlignerOptions().threads)
+           "min_votes"_a = AlignerOptions().min_votes, "threads"_a = AlignerOptions().threads,
+           "prefilter"_a = AlignerOptions().prefilter)
       .def(
           "align",
           [](const Aligner& a, const pyb::object& points_in, const pyb::object& normals_in,
-             bool return_stats) -> pyb::object {
+             bool return_stats, bool return_times) -> pyb::object {
             const Points points = as_points(points_in, "points");
             const Points normals = as_points(normals_in, "normals");
             AlignResult r;
@@ -290,15 +295,26 @@ angle_tolerance = 4 degrees, position_tolerance = 0.5 h. capacity bounds the rot
             }
             pyb::list poses;
             for (auto& p : r.poses) poses.append(pyb::cast(std::move(p)));
+            if (return_times) {
+              pyb::dict t;
+              t["query"] = r.times.query;
+              t["prefilter"] = r.times.prefilter;
+              t["solve"] = r.times.solve;
+              t["rotation_votes"] = r.times.rotation_votes;
+              t["positions"] = r.times.positions;
+              if (return_stats) return pyb::make_tuple(poses, pyb::cast(r.stats), t);
+              return pyb::make_tuple(poses, t);
+            }
             if (return_stats) return pyb::make_tuple(poses, pyb::cast(r.stats));
             return std::move(poses);
           },
           R"doc(
 Aligns one constellation: points (P, 3) in the wrist frame (metres) and normals (P, 3) as stored on
 the gripper (pointing out of the finger surface). Returns a list of AlignedPose, best first, or
-(poses, AlignStats) with return_stats=True. Releases the GIL.
+(poses, AlignStats) with return_stats=True. return_times=True appends a dict of the phases' wall
+milliseconds (query, prefilter, solve, rotation_votes, positions; not deterministic). Releases the GIL.
 )doc",
-          "points"_a, "normals"_a, "return_stats"_a = false)
+          "points"_a, "normals"_a, "return_stats"_a = false, "return_times"_a = false)
       .def(
           "align_many",
           [](const Aligner& a, const pyb::sequence& constellations, bool return_stats) {
@@ -337,6 +353,7 @@ align() of it (or (poses, AlignStats) tuples with return_stats=True). Releases t
       .def_property_readonly("capacity", [](const Aligner& a) { return a.options().capacity; })
       .def_property_readonly("max_poses", [](const Aligner& a) { return a.options().max_poses; })
       .def_property_readonly("threads", [](const Aligner& a) { return a.options().threads; })
+      .def_property_readonly("prefilter", [](const Aligner& a) { return a.options().prefilter; })
       .def_property_readonly("index", [](const Aligner& a) { return a.index(); }, "The target's PairIndex.")
       .def("__repr__", [](const Aligner& a) {
         std::ostringstream o;

@@ -7,8 +7,10 @@
 
 #include "accumulator.hpp"
 #include "thread_pool.hpp"
+#include "versor_core.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <string>
 #include <utility>
@@ -34,6 +36,63 @@ struct GripperPair {
   std::int32_t a, b;
 };
 
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point& t) {
+  const Clock::time_point now = Clock::now();
+  const double ms = std::chrono::duration<double, std::milli>(now - t).count();
+  t = now;
+  return ms;
+}
+
+// The pre-filter's view of one gripper pair (see "Pre-filter" in aligner.hpp): A_0 = -n_a,
+// A_1 = -n_b, A_2 = u = (p_b - p_a) / |p_b - p_a|.
+struct GripperAngles {
+  float phi, b0, b1;  // angles (radians) between A_0 and A_1, A_0 and u, A_1 and u
+  float tri;          // det(A_0, A_1, u)
+  bool usable = false;  // the pre-filter may reject this pair's correspondences
+};
+
+// Pre-filter verdicts: solve both point orders, only order 0, only order 1, or reject (counted as
+// the solver would count it).
+enum : std::uint8_t { kSolve = 3, kOrder0 = 1, kOrder1 = 2, kUnderdetermined = 4, kNoAgreement = 8 };
+constexpr std::uint8_t kOrders = 3;  // a verdict & kOrders != 0: solve those orders
+
+// The pre-filter's constants for one alignment.
+struct Prefilter {
+  bool on = false;
+  float angle_margin = 0;  // 2 tau + margin (radians)
+  float tri_margin = 0;    // c(1+c)^2 + c(1+c) + c + margin
+  float col_lo = 0, col_hi = 0;  // collinearity angle clearly below / above the collinear tolerance
+  float min_d = 0;         // shorter target pairs are solved (the solver may drop their line pairing)
+};
+
+constexpr double kGeometryMargin = 5e-4;  // int16 storage (5e-5 rad), float32 and double rounding
+constexpr float kPiF = 3.14159265358979f;
+
+// Verdict on a target pair (its feature f, geometry g) for a gripper pair's angles.
+inline std::uint8_t prefilter_verdict(const Prefilter& pf, const GripperAngles& ga, const float* f,
+                                      const std::int16_t* g) {
+  if (!(f[0] > pf.min_d)) return kSolve;
+  constexpr float ang = kPiF / float(PairIndex::kGeometryScale);
+  constexpr float inv = 1.0f / float(PairIndex::kGeometryScale);
+  const float phi = g[0] * ang, bi = g[1] * ang, bj = g[2] * ang, tri = g[3] * inv;
+  const float m = pf.angle_margin;
+  if (std::abs(ga.phi - phi) <= m && std::abs(ga.tri - tri) <= pf.tri_margin) {
+    std::uint8_t orders = 0;
+    if (std::abs(ga.b0 - bi) <= m && std::abs(ga.b1 - bj) <= m) orders |= kOrder0;
+    if (std::abs(ga.b0 - (kPiF - bj)) <= m && std::abs(ga.b1 - (kPiF - bi)) <= m) orders |= kOrder1;
+    if (orders) return orders;
+  }
+  // As the solver would count it: underdetermined when the target side is collinear,
+  // max(|n_i x n_j|, |n_i x u|, |n_j x u|) <= sin(collinear_tolerance), i.e. when each of the
+  // three angles lies within collinear_tolerance (<= pi/2) of 0 or pi.
+  const float col = std::max({std::min(phi, kPiF - phi), std::min(bi, kPiF - bi), std::min(bj, kPiF - bj)});
+  if (col <= pf.col_lo) return kUnderdetermined;
+  if (col > pf.col_hi) return kNoAgreement;
+  return kSolve;
+}
+
 // One solver candidate that voted: 28 bytes.
 struct Vote {
   std::uint32_t corr;   // index into the correspondence list
@@ -46,6 +105,7 @@ struct Vote {
 struct Correspondence {
   std::uint32_t gripper_pair;
   std::uint32_t target_pair;
+  std::uint8_t orders = kSolve;  // the point orders that can give a voting candidate
 };
 
 Quaterniond vote_quaternion(const Vote& v) {
@@ -177,6 +237,7 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
   AlignStats& st = result.stats;
   const Context ctx{index, opt, gp, gn, reference_spacing(index)};
   const double tau = opt.angle_tolerance;
+  Clock::time_point clock = Clock::now();
 
   // ---- pass 1: correspondences
   const auto P = static_cast<std::int32_t>(gp.rows());
@@ -185,7 +246,6 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
   const double sin_collinear = std::sin(std::min(opt.collinear_tolerance, 0.5 * kPi));
   for (std::int32_t a = 0; a < P; ++a)
     for (std::int32_t b = a + 1; b < P; ++b) {
-      ++st.gripper_pairs;
       const Vector3d pa = gp.row(a).transpose(), pb = gp.row(b).transpose();
       const Vector3d na = -gn.row(a).transpose(), nb = -gn.row(b).transpose();  // flipped
       const Vector3d d = pb - pa;
@@ -200,34 +260,109 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
       gpairs.push_back({a, b});
       features.push_back(pair_feature(pa, na, pb, nb));
     }
+  st.gripper_pairs = static_cast<std::size_t>(P) * static_cast<std::size_t>(P - 1) / 2;
+
+  // Pre-filter constants and each gripper pair's angles.
+  Prefilter pf;
+  std::vector<GripperAngles> gangles(gpairs.size());
+  if (opt.prefilter && opt.min_agreement >= 2 && index.size() > 0) {
+    pf.on = true;
+    const double c = 2.0 * std::sin(0.5 * std::min(tau, kPi));
+    pf.angle_margin = static_cast<float>(2.0 * std::min(tau, kPi) + kGeometryMargin);
+    pf.tri_margin = static_cast<float>(c * (1 + c) * (1 + c) + c * (1 + c) + c + kGeometryMargin);
+    const double collinear = std::min(opt.collinear_tolerance, 0.5 * kPi);
+    pf.col_lo = static_cast<float>(collinear - kGeometryMargin);
+    pf.col_hi = static_cast<float>(collinear + kGeometryMargin);
+    // The solver drops the line pairing when |d| <= 1e-9 (1 + the largest coordinate).
+    const double scale = 1.0 + std::max(gp.cwiseAbs().maxCoeff(), index.points().cwiseAbs().maxCoeff());
+    pf.min_d = static_cast<float>(4e-9 * scale);
+    for (std::size_t g = 0; g < gpairs.size(); ++g) {
+      const Vector3d pa = gp.row(gpairs[g].a).transpose(), pb = gp.row(gpairs[g].b).transpose();
+      const Vector3d a0 = -gn.row(gpairs[g].a).transpose(), a1 = -gn.row(gpairs[g].b).transpose();
+      const Vector3d d = pb - pa;
+      const double len = d.norm();
+      if (!(len > 4e-9 * scale)) continue;
+      const Vector3d u = d / len;
+      const double col = std::max({a0.cross(a1).norm(), a0.cross(u).norm(), a1.cross(u).norm()});
+      if (!(col > sin_collinear + kGeometryMargin)) continue;  // the solver's own test decides
+      GripperAngles& ga = gangles[g];
+      auto angle = [](double cosine) { return static_cast<float>(std::acos(std::clamp(cosine, -1.0, 1.0))); };
+      ga.phi = angle(a0.dot(a1));
+      ga.b0 = angle(a0.dot(u));
+      ga.b1 = angle(a1.dot(u));
+      ga.tri = static_cast<float>(a0.cross(a1).dot(u));
+      ga.usable = true;
+    }
+  }
   std::vector<std::vector<std::uint32_t>> hits(gpairs.size());
-  detail::parallel_for(gpairs.size(), threads, [&](std::size_t g) {
-    index.query(features[g], opt.feature_tolerance, hits[g]);
-    std::sort(hits[g].begin(), hits[g].end());
-  });
+  detail::parallel_for(gpairs.size(), threads, [&](std::size_t g) { index.query(features[g], opt.feature_tolerance, hits[g]); });
   for (const auto& h : hits) st.correspondences += h.size();
+  result.times.query = ms_since(clock);
   const std::size_t stride =
       st.correspondences > opt.max_correspondences
           ? (st.correspondences + opt.max_correspondences - 1) / opt.max_correspondences
           : 1;
+  // Verdicts per gripper pair; without thinning the rejected pairs leave the lists before the sort
+  // (the survivors keep their sorted order).
+  const float* tfeat = index.features().data();
+  const std::int16_t* tgeom = index.pair_geometry().data();
+  auto verdict = [&](std::size_t g, std::uint32_t t) {
+    return prefilter_verdict(pf, gangles[g], tfeat + 3 * std::size_t(t), tgeom + 4 * std::size_t(t));
+  };
+  std::vector<std::size_t> g_under(gpairs.size(), 0), g_none(gpairs.size(), 0);
+  detail::parallel_for(gpairs.size(), threads, [&](std::size_t g) {
+    auto& h = hits[g];
+    if (pf.on && stride == 1 && gangles[g].usable) {
+      std::size_t keep = 0;
+      for (std::size_t k = 0; k < h.size(); ++k) {
+        const std::uint8_t v = verdict(g, h[k]);
+        if (v & kOrders)
+          h[keep++] = h[k];
+        else if (v == kUnderdetermined)
+          ++g_under[g];
+        else
+          ++g_none[g];
+      }
+      h.resize(keep);
+    }
+    std::sort(h.begin(), h.end());
+  });
   std::vector<Correspondence> corr;
   corr.reserve(st.correspondences / stride + 1);
   {
     std::size_t k = 0;
     for (std::size_t g = 0; g < hits.size(); ++g) {
-      for (auto t : hits[g])
-        if (k++ % stride == 0) corr.push_back({static_cast<std::uint32_t>(g), t});
+      st.underdetermined += g_under[g];
+      st.no_agreement += g_none[g];
+      st.prefiltered += g_under[g] + g_none[g];
+      const bool filter = pf.on && gangles[g].usable;
+      for (auto t : hits[g]) {
+        if (k++ % stride != 0) continue;
+        std::uint8_t v = kSolve;
+        if (filter) {  // without thinning, hits[g] holds only survivors: v gives their orders
+          v = verdict(g, t);
+          if (!(v & kOrders)) {
+            ++(v == kUnderdetermined ? st.underdetermined : st.no_agreement);
+            ++st.prefiltered;
+            continue;
+          }
+        }
+        corr.push_back({static_cast<std::uint32_t>(g), t, v});
+      }
       std::vector<std::uint32_t>().swap(hits[g]);
     }
   }
-  st.correspondences_used = corr.size();
+  st.correspondences_used = corr.size() + st.prefiltered;
   if (stride > 1) st.saturated = true;
+  result.times.prefilter = ms_since(clock);
 
   // ---- pass 2: solve in fixed chunks (parallel), vote in chunk order (sequential)
   PairPoseOptions sopt;
   sopt.angle_tolerance = tau;
   sopt.collinear_tolerance = opt.collinear_tolerance;
   sopt.min_agreement = std::max(1, opt.min_agreement);
+  const detail::VersorSettings vset =
+      detail::versor_settings(sopt.angle_tolerance, sopt.collinear_tolerance, sopt.min_agreement);
   const std::size_t nchunks = (corr.size() + kChunk - 1) / kChunk;
   std::vector<std::vector<Vote>> chunk_votes(nchunks);
   std::vector<std::size_t> chunk_under(nchunks, 0), chunk_none(nchunks, 0);
@@ -235,23 +370,47 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
   const auto& tp = index.points();
   const auto& tn = index.normals();
   detail::parallel_for(nchunks, threads, [&](std::size_t ch) {
-    PairPoseResult r;
     auto& out = chunk_votes[ch];
     const std::size_t end = std::min(corr.size(), (ch + 1) * kChunk);
+    if (!opt.prefilter) {
+      // The solver as called before the pre-filter existed (kept for comparison).
+      PairPoseResult r;
+      for (std::size_t k = ch * kChunk; k < end; ++k) {
+        const GripperPair& g = gpairs[corr[k].gripper_pair];
+        const std::int32_t i = tpairs(corr[k].target_pair, 0), j = tpairs(corr[k].target_pair, 1);
+        solve_pair_pose(gp.row(g.a).transpose(), gp.row(g.b).transpose(), gn.row(g.a).transpose(),
+                        gn.row(g.b).transpose(), tp.row(i).transpose(), tp.row(j).transpose(), tn.row(i).transpose(),
+                        tn.row(j).transpose(), sopt, r);
+        if (r.status == PairPoseStatus::Underdetermined) ++chunk_under[ch];
+        if (r.status == PairPoseStatus::NoAgreement) ++chunk_none[ch];
+        for (const auto& c : r.candidates) {
+          if (c.agreement < opt.min_agreement) continue;
+          const Quaterniond q = detail::canonical_quaternion(c.versor);
+          out.push_back({static_cast<std::uint32_t>(k), -1,
+                         {float(q.x()), float(q.y()), float(q.z()), float(q.w())},
+                         static_cast<std::uint8_t>(c.agreement), static_cast<std::uint8_t>(c.order)});
+        }
+      }
+      return;
+    }
+    std::array<detail::VersorCandidate, detail::kMaxVersorCandidates> cand;
     for (std::size_t k = ch * kChunk; k < end; ++k) {
       const GripperPair& g = gpairs[corr[k].gripper_pair];
       const std::int32_t i = tpairs(corr[k].target_pair, 0), j = tpairs(corr[k].target_pair, 1);
-      solve_pair_pose(gp.row(g.a).transpose(), gp.row(g.b).transpose(), gn.row(g.a).transpose(),
-                      gn.row(g.b).transpose(), tp.row(i).transpose(), tp.row(j).transpose(), tn.row(i).transpose(),
-                      tn.row(j).transpose(), sopt, r);
-      if (r.status == PairPoseStatus::Underdetermined) ++chunk_under[ch];
-      if (r.status == PairPoseStatus::NoAgreement) ++chunk_none[ch];
-      for (const auto& c : r.candidates) {
-        if (c.agreement < opt.min_agreement) continue;
-        const Quaterniond q = detail::canonical_quaternion(c.versor);
+      int n = 0;
+      const int status = detail::solve_versors(gp.row(g.a).transpose(), gp.row(g.b).transpose(),
+                                               gn.row(g.a).transpose(), gn.row(g.b).transpose(), tp.row(i).transpose(),
+                                               tp.row(j).transpose(), tn.row(i).transpose(), tn.row(j).transpose(),
+                                               vset, cand, n, corr[k].orders);
+      if (status == 1) ++chunk_under[ch];
+      if (status == 2) ++chunk_none[ch];
+      for (int c = 0; c < n; ++c) {
+        const int agreement = cand[c].s * (cand[c].s - 1) / 2;
+        if (agreement < opt.min_agreement) continue;
+        const Quaterniond q = detail::canonical_quaternion(cand[c].q);
         out.push_back({static_cast<std::uint32_t>(k), -1,
                        {float(q.x()), float(q.y()), float(q.z()), float(q.w())},
-                       static_cast<std::uint8_t>(c.agreement), static_cast<std::uint8_t>(c.order)});
+                       static_cast<std::uint8_t>(agreement), static_cast<std::uint8_t>(cand[c].order)});
       }
     }
   });
@@ -268,6 +427,7 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
       st.no_agreement += chunk_none[ch];
     }
   }
+  result.times.solve = ms_since(clock);
   const double qcell = std::sin(0.25 * tau) * 2.0;  // chord of angle tau on the unit quaternions: 2 sin(tau / 4)
   detail::HashedBins<4> rbins(opt.capacity, votes.size());
   for (Vote& v : votes) {
@@ -278,6 +438,8 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
   st.rotation_bins = rbins.bins().size();
   st.dropped_rotation_votes = static_cast<std::size_t>(std::lround(rbins.dropped_weight()));
   if (rbins.saturated()) st.saturated = true;
+
+  result.times.rotation_votes = ms_since(clock);
 
   // ---- pass 3: position votes for the strongest rotation clusters
   const auto rclusters = detail::rotation_clusters(rbins, qcell, tau, opt.rotation_clusters);
@@ -340,6 +502,7 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
                           (k.translation - p.translation).norm() <= opt.position_tolerance);
     if (!repeat) result.poses.push_back(std::move(p));
   }
+  result.times.positions = ms_since(clock);
   return result;
 }
 

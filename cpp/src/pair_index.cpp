@@ -153,7 +153,32 @@ double median_nn_spacing(const Points& points, int threads) {
 struct Record {
   float f[3];
   std::int32_t i, j;
+  std::int16_t g[4];  // pair_geometry() row
 };
+
+std::int16_t quantise(double v, double scale) {
+  return static_cast<std::int16_t>(std::round(std::clamp(v, -1.0, 1.0) * scale));
+}
+
+double angle_of(double cosine) { return std::acos(std::clamp(cosine, -1.0, 1.0)); }
+
+/// The pair_geometry() row of the oriented points (pi, ni), (pj, nj).
+void pair_geometry_raw(const double* pi, const double* ni, const double* pj, const double* nj, std::int16_t* g) {
+  constexpr double kPi = 3.14159265358979323846;
+  const double as = PairIndex::kGeometryScale / kPi;  // angles in [0, pi]
+  const Eigen::Vector3d a(ni[0], ni[1], ni[2]), b(nj[0], nj[1], nj[2]);
+  const Eigen::Vector3d d(pj[0] - pi[0], pj[1] - pi[1], pj[2] - pi[2]);
+  const double len = d.norm();
+  g[0] = quantise(angle_of(a.dot(b)) / kPi, PairIndex::kGeometryScale);
+  if (!(len > 0.0)) {
+    g[1] = g[2] = g[3] = 0;
+    return;
+  }
+  const Eigen::Vector3d u = d / len;
+  g[1] = static_cast<std::int16_t>(std::round(angle_of(a.dot(u)) * as));
+  g[2] = static_cast<std::int16_t>(std::round(angle_of(b.dot(u)) * as));
+  g[3] = quantise(a.cross(b).dot(u), PairIndex::kGeometryScale);
+}
 
 /// The pair budget in force: max_pairs, at most what 32-bit pair indices can address.
 std::size_t pair_limit(std::size_t max_pairs) {
@@ -234,6 +259,7 @@ struct PairIndex::Impl {
   double spacing = 0.0;
   Eigen::Matrix<std::int32_t, Eigen::Dynamic, 2, Eigen::RowMajor> pairs;
   Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> features;
+  Eigen::Matrix<std::int16_t, Eigen::Dynamic, 4, Eigen::RowMajor> geometry;
   std::vector<float> boxes;  // 6 per node, heap order
   int depth = 0;
 
@@ -352,6 +378,8 @@ PairIndex::PairIndex(const Points& points, const Points& normals, const Mask& fr
         Record& r = rec[at++];
         r.f[0] = float(f[0]), r.f[1] = float(f[1]), r.f[2] = float(f[2]);
         r.i = i, r.j = j;
+        pair_geometry_raw(points.row(i).data(), normals.row(i).data(), points.row(j).data(),
+                          normals.row(j).data(), r.g);
       });
     }
   });
@@ -359,10 +387,12 @@ PairIndex::PairIndex(const Points& points, const Points& normals, const Mask& fr
   impl->build_tree(rec, threads);
   impl->pairs.resize(Eigen::Index(m), 2);
   impl->features.resize(Eigen::Index(m), 3);
+  impl->geometry.resize(Eigen::Index(m), 4);
   detail::parallel_chunks(m, threads, [&](std::size_t b, std::size_t e, int) {
     for (std::size_t k = b; k < e; ++k) {
       impl->pairs(k, 0) = rec[k].i, impl->pairs(k, 1) = rec[k].j;
       for (int a = 0; a < 3; ++a) impl->features(k, a) = rec[k].f[a];
+      for (int a = 0; a < 4; ++a) impl->geometry(k, a) = rec[k].g[a];
     }
   });
   std::vector<Record>().swap(rec);
@@ -377,6 +407,9 @@ const Eigen::Matrix<std::int32_t, Eigen::Dynamic, 2, Eigen::RowMajor>& PairIndex
 const Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor>& PairIndex::features() const {
   return impl_->features;
 }
+const Eigen::Matrix<std::int16_t, Eigen::Dynamic, 4, Eigen::RowMajor>& PairIndex::pair_geometry() const {
+  return impl_->geometry;
+}
 const Points& PairIndex::points() const { return impl_->points; }
 const Points& PairIndex::normals() const { return impl_->normals; }
 const Mask& PairIndex::free() const { return impl_->free; }
@@ -388,7 +421,8 @@ const std::vector<float>& PairIndex::node_boxes() const { return impl_->boxes; }
 std::size_t PairIndex::nbytes() const {
   const Impl& s = *impl_;
   return sizeof(Impl) + std::size_t(s.pairs.size()) * sizeof(std::int32_t) +
-         std::size_t(s.features.size()) * sizeof(float) + s.boxes.size() * sizeof(float) +
+         std::size_t(s.features.size()) * sizeof(float) + std::size_t(s.geometry.size()) * sizeof(std::int16_t) +
+         s.boxes.size() * sizeof(float) +
          std::size_t(s.points.size() + s.normals.size()) * sizeof(double) + std::size_t(s.free.size());
 }
 

@@ -2,6 +2,8 @@
 #include <pairgrasp/error.hpp>
 #include <pairgrasp/versor.hpp>
 
+#include "versor_core.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -323,7 +325,58 @@ void solve_pair_pose(const Vector3d& gp0, const Vector3d& gp1, const Vector3d& g
     throw std::invalid_argument("collinear_tolerance: expected a non-negative finite angle (radians), got " +
                                 std::to_string(options.collinear_tolerance));
   result.candidates.clear();
+  const detail::VersorSettings settings =
+      detail::versor_settings(options.angle_tolerance, options.collinear_tolerance, options.min_agreement);
+  std::array<detail::VersorCandidate, detail::kMaxVersorCandidates> ranked;
+  int nr = 0;
+  const int status = detail::solve_versors(gp0, gp1, gn0, gn1, tp0, tp1, tn0, tn1, settings, ranked, nr);
+  if (status == 1) {
+    result.status = PairPoseStatus::Underdetermined;
+    return;
+  }
+  if (status == 2) {
+    result.status = PairPoseStatus::NoAgreement;
+    return;
+  }
+  const Vector3d pg = 0.5 * (gp0 + gp1), pt = 0.5 * (tp0 + tp1);
+  result.status = PairPoseStatus::Ok;
+  result.candidates.resize(nr);
+  for (int r = 0; r < nr; ++r) {
+    PairPoseCandidate& c = result.candidates[r];
+    const Quaterniond& q = ranked[r].q;
+    c.versor = q;
+    c.rotation = q.toRotationMatrix();
+    c.translation = pt - c.rotation * pg;  // eq. 19
+    const double vn = q.vec().norm();
+    c.angle = 2.0 * std::atan2(vn, q.w());
+    c.axis = vn > 0 ? Vector3d(q.vec() / vn) : Vector3d::UnitZ();
+    canonicalize_versor(c.angle, c.axis);
+    c.agreement = ranked[r].s * (ranked[r].s - 1) / 2;
+    c.order = ranked[r].order;
+    c.residual = ranked[r].rms;
+  }
+}
 
+namespace detail {
+
+static_assert(kMaxVersorCandidates >= 2 * kMaxHyp, "room for both orders' hypotheses");
+
+VersorSettings versor_settings(double angle_tolerance, double collinear_tolerance, int min_agreement) {
+  VersorSettings s;
+  s.sin_collinear = std::sin(std::min(collinear_tolerance, 0.5 * kPi));
+  // Agreement s(s-1)/2 >= min_agreement  <=>  s >= min_s.
+  s.min_s = min_agreement <= 1 ? 2 : 3;
+  const double tol = std::min(angle_tolerance, kPi);
+  s.chord = 2.0 * std::sin(0.5 * tol);
+  s.cos_half_tol = std::cos(0.5 * tol);  // |q1.q2| >= this  <=>  angle(q1, q2) <= tol
+  return s;
+}
+
+int solve_versors(const Vector3d& gp0, const Vector3d& gp1, const Vector3d& gn0, const Vector3d& gn1,
+                  const Vector3d& tp0, const Vector3d& tp1, const Vector3d& tn0, const Vector3d& tn1,
+                  const VersorSettings& settings, std::array<VersorCandidate, kMaxVersorCandidates>& out,
+                  int& count, unsigned orders) {
+  count = 0;
   // Gripper normals are flipped: at a contact the target normal opposes the finger's.
   const Vector3d a0 = -gn0, a1 = -gn1;
   const Vector3d dg = gp1 - gp0, dt = tp1 - tp0;
@@ -335,53 +388,31 @@ void solve_pair_pose(const Vector3d& gp0, const Vector3d& gp1, const Vector3d& g
   const Vector3d ut = has_u ? Vector3d(dt / lt) : Vector3d::Zero();
 
   // Collinear side (antipodal pair, or coincident points with parallel normals): roll is free.
-  const double sin_collinear = std::sin(std::min(options.collinear_tolerance, 0.5 * kPi));
+  const double sin_collinear = settings.sin_collinear;
   if (max_cross(a0, a1, has_u ? &ug : nullptr) <= sin_collinear ||
-      max_cross(tn0, tn1, has_u ? &ut : nullptr) <= sin_collinear) {
-    result.status = PairPoseStatus::Underdetermined;
-    return;
-  }
+      max_cross(tn0, tn1, has_u ? &ut : nullptr) <= sin_collinear)
+    return 1;
 
-  // Agreement s(s-1)/2 >= min_agreement  <=>  s >= min_s.
-  const int min_s = options.min_agreement <= 1 ? 2 : 3;
-  const double tol = std::min(options.angle_tolerance, kPi);
-  const double chord = 2.0 * std::sin(0.5 * tol);
-  const double cos_half_tol = std::cos(0.5 * tol);  // |q1.q2| >= this  <=>  angle(q1, q2) <= tol
   std::array<Ranked, 2 * kMaxHyp> ranked;
   int nr = 0;
   for (int order = 0; order < 2; ++order) {
+    if (!(orders & (1u << order))) continue;
     std::array<Pairing, 3> p;
     p[0] = {a0, order == 0 ? tn0 : tn1, true};
     p[1] = {a1, order == 0 ? tn1 : tn0, true};
     p[2] = {ug, order == 0 ? ut : Vector3d(-ut), has_u};
     std::array<Hyp, kMaxHyp> hyps;
-    const int nh = order_hypotheses(p, chord, sin_collinear, min_s, cos_half_tol, hyps);
+    const int nh = order_hypotheses(p, settings.chord, sin_collinear, settings.min_s, settings.cos_half_tol, hyps);
     for (int k = 0; k < nh; ++k) ranked[nr++] = {hyps[k], order};
   }
-  if (nr == 0) {
-    result.status = PairPoseStatus::NoAgreement;
-    return;
-  }
+  if (nr == 0) return 2;
   std::sort(ranked.begin(), ranked.begin() + nr, better);
-
-  const Vector3d pg = 0.5 * (gp0 + gp1), pt = 0.5 * (tp0 + tp1);
-  result.status = PairPoseStatus::Ok;
-  result.candidates.resize(nr);
-  for (int r = 0; r < nr; ++r) {
-    PairPoseCandidate& c = result.candidates[r];
-    const Quaterniond& q = ranked[r].h.q;
-    c.versor = q;
-    c.rotation = q.toRotationMatrix();
-    c.translation = pt - c.rotation * pg;  // eq. 19
-    const double vn = q.vec().norm();
-    c.angle = 2.0 * std::atan2(vn, q.w());
-    c.axis = vn > 0 ? Vector3d(q.vec() / vn) : Vector3d::UnitZ();
-    canonicalize_versor(c.angle, c.axis);
-    c.agreement = ranked[r].h.s * (ranked[r].h.s - 1) / 2;
-    c.order = ranked[r].order;
-    c.residual = ranked[r].h.rms;
-  }
+  for (int r = 0; r < nr; ++r) out[r] = {ranked[r].h.q, ranked[r].h.s, ranked[r].order, ranked[r].h.rms};
+  count = nr;
+  return 0;
 }
+
+}  // namespace detail
 
 PairPoseResult solve_pair_pose(const Vector3d& gp0, const Vector3d& gp1, const Vector3d& gn0,
                                const Vector3d& gn1, const Vector3d& tp0, const Vector3d& tp1,

@@ -392,3 +392,77 @@ TEST_F(AlignerTest, BadInputThrows) {
   o.threads = -2;
   EXPECT_THROW(Aligner(index_, o), std::invalid_argument);
 }
+
+// The pre-filter only skips correspondences the solver would reject: with it on and off, the
+// poses are bit for bit the same and so is every count (the rejected ones are counted as the
+// solver counts them), on patches, noisy patches and random constellations, for several
+// tolerances, with and without thinning.
+TEST_F(AlignerTest, PrefilterChangesNothingButTheWork) {
+  std::mt19937_64 rng(57);
+  std::uniform_int_distribution<int> pick(0, static_cast<int>(facets_->points.rows()) - 1);
+  std::normal_distribution<double> g;
+  std::vector<std::pair<Points, Points>> cs;
+  for (int k = 0; k < 6; ++k) {
+    Patch p = make_patch(*facets_, pick(rng), 0.03, 5 + k % 4, rng);
+    if (k % 2 == 1)
+      for (Eigen::Index r = 0; r < p.points.rows(); ++r) {
+        p.points.row(r) += 0.001 * Eigen::RowVector3d(g(rng), g(rng), g(rng));
+        p.normals.row(r) = (p.normals.row(r) + 0.03 * Eigen::RowVector3d(g(rng), g(rng), g(rng))).normalized();
+      }
+    cs.emplace_back(p.points, p.normals);
+  }
+  for (int k = 0; k < 4; ++k) {  // random oriented points within a 5 cm ball
+    Points P(6, 3), N(6, 3);
+    for (Eigen::Index r = 0; r < 6; ++r) {
+      P.row(r) = 0.025 * Eigen::RowVector3d(g(rng), g(rng), g(rng));
+      N.row(r) = Eigen::RowVector3d(g(rng), g(rng), g(rng)).normalized();
+    }
+    cs.emplace_back(P, N);
+  }
+  std::size_t prefiltered = 0, solved = 0;
+  for (int variant = 0; variant < 4; ++variant) {
+    AlignerOptions o;
+    o.threads = 1 + variant % 2;
+    if (variant == 1) o.angle_tolerance = 0.02;
+    if (variant == 2) o.angle_tolerance = 0.12, o.collinear_tolerance = 0.3;
+    if (variant == 3) o.max_correspondences = 700;  // thinned
+    o.prefilter = false;
+    const Aligner before(index_, o);
+    o.prefilter = true;
+    const Aligner now(index_, o);
+    for (std::size_t c = 0; c < cs.size(); ++c) {
+      const AlignResult a = before.align(cs[c].first, cs[c].second);
+      const AlignResult b = now.align(cs[c].first, cs[c].second);
+      const std::string where = "variant " + std::to_string(variant) + " constellation " + std::to_string(c);
+      const AlignStats &x = a.stats, &y = b.stats;
+      EXPECT_EQ(x.prefiltered, 0u);
+      prefiltered += y.prefiltered;
+      solved += y.correspondences_used - y.prefiltered;
+      EXPECT_EQ(x.gripper_pairs, y.gripper_pairs) << where;
+      EXPECT_EQ(x.collinear_pairs, y.collinear_pairs) << where;
+      EXPECT_EQ(x.correspondences, y.correspondences) << where;
+      EXPECT_EQ(x.correspondences_used, y.correspondences_used) << where;
+      EXPECT_EQ(x.underdetermined, y.underdetermined) << where;
+      EXPECT_EQ(x.no_agreement, y.no_agreement) << where;
+      EXPECT_EQ(x.candidates, y.candidates) << where;
+      EXPECT_EQ(x.rotation_votes, y.rotation_votes) << where;
+      EXPECT_EQ(x.dropped_rotation_votes, y.dropped_rotation_votes) << where;
+      EXPECT_EQ(x.rotation_bins, y.rotation_bins) << where;
+      EXPECT_EQ(x.rotation_clusters, y.rotation_clusters) << where;
+      EXPECT_EQ(x.position_votes, y.position_votes) << where;
+      EXPECT_EQ(x.dropped_position_votes, y.dropped_position_votes) << where;
+      EXPECT_EQ(x.position_bins, y.position_bins) << where;
+      EXPECT_EQ(x.saturated, y.saturated) << where;
+      ASSERT_EQ(a.poses.size(), b.poses.size()) << where;
+      for (std::size_t i = 0; i < a.poses.size(); ++i) {
+        const AlignedPose &p = a.poses[i], &q = b.poses[i];
+        EXPECT_TRUE(p.rotation == q.rotation && p.translation == q.translation && p.votes == q.votes &&
+                    p.quality == q.quality && p.variance == q.variance && p.position_rms == q.position_rms &&
+                    p.angle_rms == q.angle_rms && p.correspondences == q.correspondences && p.contacts == q.contacts)
+            << where << " pose " << i;
+      }
+    }
+  }
+  // The filter did its work: most correspondences never reached the solver.
+  EXPECT_GT(prefiltered, solved);
+}

@@ -209,6 +209,31 @@ TEST(PairIndex, FeaturesInvariantUnderRigidMotion) {
   }
 }
 
+TEST(PairIndex, PairGeometryMatchesAnIndependentComputation) {
+  const Cloud c = sphere_cloud(500, 0.05, 8);
+  const Points &P = c.p, &N = c.n;
+  PairIndexOptions o;
+  o.d_max = 0.04;
+  const PairIndex index(P, N, Mask(), o);
+  const auto& g = index.pair_geometry();
+  ASSERT_EQ(std::size_t(g.rows()), index.size());
+  const double ang = M_PI / PairIndex::kGeometryScale, inv = 1.0 / PairIndex::kGeometryScale;
+  for (std::size_t k = 0; k < index.size(); ++k) {
+    const int i = index.pairs()(k, 0), j = index.pairs()(k, 1);
+    const Eigen::Vector3d ni = N.row(i).transpose(), nj = N.row(j).transpose();
+    const Eigen::Vector3d u = (P.row(j) - P.row(i)).transpose().normalized();
+    EXPECT_NEAR(g(k, 0) * ang, std::acos(std::clamp(ni.dot(nj), -1.0, 1.0)), 1e-4);
+    EXPECT_NEAR(g(k, 1) * ang, std::acos(std::clamp(ni.dot(u), -1.0, 1.0)), 1e-4);
+    EXPECT_NEAR(g(k, 2) * ang, std::acos(std::clamp(nj.dot(u), -1.0, 1.0)), 1e-4);
+    EXPECT_NEAR(g(k, 3) * inv, ni.cross(nj).dot(u), 1e-4);
+  }
+  // 2 int32 + 3 float32 + 4 int16 per pair (28 bytes), plus the tree (24 bytes per node, at
+  // most 3 bytes per pair with leaves of 16 or more pairs) and the points.
+  const double per_pair = double(index.nbytes() - std::size_t(P.size() + N.size()) * sizeof(double)) / double(index.size());
+  EXPECT_GE(per_pair, 28.0);
+  EXPECT_LE(per_pair, 31.5);
+}
+
 TEST(PairIndex, FreeMaskKeepsOnlyFreePairs) {
   const Cloud c = sphere_cloud(500, 0.05, 6);
   Mask free(500);
@@ -320,9 +345,9 @@ TEST(PairIndex, SpacingIsTheMedianNearestNeighbourDistance) {
   EXPECT_DOUBLE_EQ(idx.d_max(), 0.01);
   EXPECT_EQ(idx.points(), p);
   EXPECT_EQ(idx.normals(), n);
-  // nbytes: at least 8 + 12 bytes per pair, and the tree adds little.
-  EXPECT_GE(idx.nbytes(), 20 * idx.size());
-  EXPECT_LE(idx.nbytes(), 26 * idx.size() + 49 * 600 + 4096);
+  // nbytes: at least 8 + 12 + 8 bytes per pair, and the tree adds little.
+  EXPECT_GE(idx.nbytes(), 28 * idx.size());
+  EXPECT_LE(idx.nbytes(), 34 * idx.size() + 49 * 600 + 4096);
 }
 
 TEST(PairIndex, BudgetRefusalNamesWhatFits) {

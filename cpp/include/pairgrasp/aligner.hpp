@@ -10,8 +10,10 @@
 ///     e = pair_feature(p_a, -n_a, p_b, -n_b) (gripper normals flipped) is queried with the
 ///     tolerance box; every stored (free) target pair inside is a correspondence. Gripper pairs
 ///     whose two normals lie along their connecting line (antipodal: the roll is free) are
-///     skipped. More than `max_correspondences` are thinned evenly (every k-th is kept).
-///  2. Rotation votes: each correspondence's candidates (solve_pair_pose) with agreement a >=
+///     skipped. More than `max_correspondences` are thinned evenly (every k-th is kept). The
+///     pre-filter (below) drops those that cannot vote.
+///  2. Rotation votes: each correspondence's candidates (the six-pairing versor solver of
+///     solve_pair_pose(), called without its argument checks) with agreement a >=
 ///     `min_agreement` (default 3: all three pairings agree) cast a votes into hashed bins over unit quaternions (w >= 0; cell
 ///     angle_tolerance / 2 in each of the four coordinates, i.e. about angle_tolerance in rotation
 ///     angle; a rotation near a half turn is looked up on both sides). At most `capacity` bins are
@@ -26,6 +28,21 @@
 ///     contacts so that a rotation error moves it by no more than the constellation's size),
 ///     into hashed bins of cell position_tolerance (at most `position_capacity` per cluster),
 ///     merged the same way (Euclidean distance).
+///
+/// Pre-filter (AlignerOptions::prefilter, on by default; needs min_agreement >= 2). A candidate
+/// votes only if it satisfies all three pairings A_k -> B_k of its order within the chord
+/// c = 2 sin(tau/2). A rotation preserves dot and triple products, so that requires, for the
+/// order's pairings, |A_i.A_j - B_i.B_j| <= 2c (for i, j the two normals and the line: phi and
+/// the two individual beta angles, where the index's feature holds only their difference) and
+/// |det(A_0, A_1, A_2) - det(B_0, B_1, B_2)| <= c(1+c)^2 + c(1+c) + c (the pair's handedness:
+/// a mirror image matches every angle but no rotation). The target side is the index's
+/// pair_geometry(), computed once per stored pair; the gripper side once per gripper pair. A
+/// correspondence failing the conditions for both orders (with a margin of 2e-4 for the int16
+/// storage) is counted as the solver would count it (underdetermined when the stored
+/// collinearity sine is clearly at most sin(collinear_tolerance), no_agreement when clearly
+/// above; near the threshold it is solved) and is not solved; of one that passes, only the
+/// point orders that meet the conditions are solved. The votes, in the same order, and hence
+/// the poses are exactly those without the pre-filter.
 ///
 /// Each (rotation, position) cluster becomes a pose. Its rotation is the vote-weighted mean
 /// quaternion of its votes (refined once: votes farther than angle_tolerance from the mean are
@@ -76,6 +93,10 @@ struct AlignerOptions {
   int min_agreement = 3;
   int min_votes = 3;             ///< poses with fewer votes are not returned
   int threads = 0;               ///< worker threads for one align(); 0: all cores
+  /// Reject correspondences that cannot vote before solving them (see "Pre-filter" in the file
+  /// comment). It never changes the result: poses and every count but `prefiltered` are the same
+  /// with it off. Off exists only to measure the solver-only path for comparison (bench_aligner).
+  bool prefilter = true;
 };
 
 /// One aligned pose of the gripper: p_T = rotation * p_G + translation.
@@ -104,6 +125,9 @@ struct AlignStats {
   std::size_t correspondences_used = 0; ///< after thinning to max_correspondences
   std::size_t underdetermined = 0;      ///< correspondences the solver found underdetermined
   std::size_t no_agreement = 0;         ///< correspondences with no rigid candidate
+  /// Of the underdetermined and no_agreement correspondences, those the pre-filter rejected
+  /// without a pose solve (0 with AlignerOptions::prefilter off).
+  std::size_t prefiltered = 0;
   std::size_t candidates = 0;           ///< solver candidates that voted (agreement >= min_agreement)
   std::size_t rotation_votes = 0;       ///< votes cast in pass 2 (sum of their agreement)
   std::size_t dropped_rotation_votes = 0;  ///< votes lost because every rotation bin was taken
@@ -115,10 +139,22 @@ struct AlignStats {
   bool saturated = false;  ///< some votes or correspondences were dropped (capacity reached)
 };
 
-/// Poses best first (Q_A, then votes) and the counts.
+/// Wall-clock milliseconds of one alignment's phases (not deterministic, unlike everything else
+/// in AlignResult; with several threads a phase's time is that of its parallel section).
+struct AlignTimes {
+  double query = 0;      ///< pass 1: gripper pair features and hierarchy queries
+  double prefilter = 0;  ///< pass 1: pre-filter, sorting and thinning into the correspondence list
+  double solve = 0;      ///< pass 2: pose solves of the correspondences
+  double rotation_votes = 0;  ///< pass 2: votes into the rotation bins
+  double positions = 0;  ///< pass 3: rotation clusters, position votes and clusters, poses
+  double total() const { return query + prefilter + solve + rotation_votes + positions; }
+};
+
+/// Poses best first (Q_A, then votes), the counts and the phase times.
 struct AlignResult {
   std::vector<AlignedPose> poses;
   AlignStats stats;
+  AlignTimes times;
 };
 
 /// Aligns gripper constellations with one target. Thread-safe: align() may be called from

@@ -24,8 +24,9 @@ struct PairIndexOptions {
 ///
 /// Only pairs whose two facets are both free are stored (all pairs when `free` is empty).
 /// Pairs are found with a uniform grid of cell d_max (no all-pairs distance test), counted
-/// before anything is stored (the budget), and kept compactly: 2 int32 indices and 3 float32
-/// features per pair. The hierarchy is a complete binary tree in heap order (children of node k
+/// before anything is stored (the budget), and kept compactly: 2 int32 indices, 3 float32
+/// features and 4 int16 angle terms (pair_geometry(), for the Aligner's pre-filter) per pair,
+/// 28 bytes. The hierarchy is a complete binary tree in heap order (children of node k
 /// are 2k+1 and 2k+2) whose every level splits its range of pairs at the median along the axis
 /// of largest extent (extents measured relative to the root box, so metres and cosines weigh
 /// alike); leaves hold 16 to 32 pairs (fewer only when there are fewer); a node is one float32 box (24 bytes). pairs() and
@@ -43,6 +44,16 @@ class PairIndex {
   const Eigen::Matrix<std::int32_t, Eigen::Dynamic, 2, Eigen::RowMajor>& pairs() const;
   /// (M,3) features (d, phi, beta_ij + beta_ji) of stored pairs.
   const Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor>& features() const;
+  /// Scale of pair_geometry(): a stored angle v stands for v * pi / kGeometryScale radians, a
+  /// stored triple product v for v / kGeometryScale.
+  static constexpr int kGeometryScale = 32767;
+  /// (M,4) int16 per stored pair (i, j), with u = (p_j - p_i) / |p_j - p_i|, rounded to the
+  /// scale (error at most 0.5 / kGeometryScale of the range, plus rounding of the double
+  /// computation): the angles (radians in [0, pi]) between n_i and n_j, n_i and u, n_j and u,
+  /// and the triple product (n_i x n_j).u in [-1, 1] (the handedness of the pair). The last
+  /// three are zero for coincident points. The Aligner rejects correspondences with them before
+  /// the pose solve (see aligner.hpp).
+  const Eigen::Matrix<std::int16_t, Eigen::Dynamic, 4, Eigen::RowMajor>& pair_geometry() const;
   /// Appends to `out` the index of every stored pair whose feature lies in the box
   /// |feature_k - center_k| <= tolerance_k for k = 0, 1, 2, in no particular order. The test is
   /// made on the stored float32 features promoted to double, exactly as a brute-force scan
