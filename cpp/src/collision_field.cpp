@@ -469,6 +469,20 @@ bool GraspChecker::Impl::field_touches_occluded(int l, const Pose& pose) const {
   return touch < 0 ? touches_occluded(l, pose) : touch == 1;
 }
 
+bool GraspChecker::Impl::active_within(int l, const Pose& pose, double gap) const {
+  const vd::SphereTree& tree = links[l].active_surface;
+  const vd::SceneModel& T = scene[0];
+  if (!options.use_distance_field || !T.field || tree.empty()) return false;
+  // Every node's representative is a point of the active faces: its unsigned distance to the
+  // target, at most max(upper, -lower) of its field interval, bounds the link's from above (and
+  // the obstacles only lower link_distance()'s minimum).
+  for (const vd::SphereTree::Node& n : tree.nodes) {
+    const FieldSample f = T.field->sample(pose * n.rep);
+    if (std::max(f.upper, -f.lower) <= gap) return true;
+  }
+  return false;
+}
+
 double GraspChecker::Impl::link_clearance(int l, const Pose& pose, bool active, double above, bool* exact) const {
   if (exact) *exact = true;
   const vd::LinkModel& L = links[l];

@@ -209,6 +209,11 @@ struct GraspChecker::Impl {
     double depth = 0.0;
   };
   LinkState link_state(int l, const Pose& pose) const;
+  /// True when the target's distance field proves that link l's active faces at `pose` (target
+  /// frame) come within `gap` of the target (a point of them whose field interval reaches no
+  /// farther than `gap`); false when it cannot tell. Never true where link_distance(l, pose, true)
+  /// exceeds `gap`.
+  bool active_within(int l, const Pose& pose, double gap) const;
   /// Whether the hand at `wrist` with its links at `link_poses` (wrist frame) would be pruned: the
   /// verdict of check(), without its report (stops at the first bad link).
   bool pruned(const Pose& wrist, const std::vector<Pose>& link_poses) const;

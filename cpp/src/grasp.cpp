@@ -170,7 +170,11 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
     StopReason reason = StopReason::Blocked;
     while (true) {
       if (d <= stop) {
-        reason = distance_at(q, true, gap) <= gap ? StopReason::Contact : StopReason::Blocked;
+        // Contact when the field shows an active face within the gap; otherwise measured.
+        bool within = false;
+        const std::vector<Pose> poses = I.target_frame_poses(wrist, q);
+        for (std::size_t i = 0; i < moving.size() && !within; ++i) within = I.active_within(moving[i], poses[moving[i]], gap);
+        reason = within || distance_at(q, true, gap) <= gap ? StopReason::Contact : StopReason::Blocked;
         break;
       }
       if (q[k] == limit) {
