@@ -369,8 +369,9 @@ GraspChecker::Impl::LinkState GraspChecker::Impl::link_state(int l, const Pose& 
     const vd::PairCheck pc = pair(l, pose, static_cast<int>(s), obstacle ? 0.0 : options.depth_tolerance);
     if (!pc.intersecting && !pc.inside) continue;
     out.depth = std::max(out.depth, pc.depth);
-    out.bad = out.bad || obstacle || pc.depth > options.depth_tolerance;
+    out.penetrating = out.penetrating || obstacle || pc.depth > options.depth_tolerance;
   }
+  out.bad = out.penetrating;
   if (!out.bad) out.bad = options.use_distance_field ? field_touches_occluded(l, pose) : touches_occluded(l, pose);
   return out;
 }
@@ -378,6 +379,12 @@ GraspChecker::Impl::LinkState GraspChecker::Impl::link_state(int l, const Pose& 
 bool GraspChecker::Impl::pruned(const Pose& wrist, const std::vector<Pose>& link_poses) const {
   for (std::size_t l = 0; l < links.size(); ++l)
     if (link_state(static_cast<int>(l), wrist * link_poses[l]).bad) return true;
+  return false;
+}
+
+bool GraspChecker::Impl::penetrating(const Pose& wrist, const std::vector<Pose>& link_poses) const {
+  for (std::size_t l = 0; l < links.size(); ++l)
+    if (link_state(static_cast<int>(l), wrist * link_poses[l]).penetrating) return true;
   return false;
 }
 

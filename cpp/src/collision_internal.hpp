@@ -206,6 +206,7 @@ struct GraspChecker::Impl {
   /// searched as check() with exact_depth false (a lower bound beyond the tolerance).
   struct LinkState {
     bool bad = false;
+    bool penetrating = false;  ///< beyond the depth tolerance in the target, or in an obstacle
     double depth = 0.0;
   };
   LinkState link_state(int l, const Pose& pose) const;
@@ -217,6 +218,9 @@ struct GraspChecker::Impl {
   /// Whether the hand at `wrist` with its links at `link_poses` (wrist frame) would be pruned: the
   /// verdict of check(), without its report (stops at the first bad link).
   bool pruned(const Pose& wrist, const std::vector<Pose>& link_poses) const;
+  /// Whether some link at `wrist` and `link_poses` penetrates (LinkState::penetrating). Closing
+  /// never moves such a link (close_fingers()), so the closed grasp is pruned too.
+  bool penetrating(const Pose& wrist, const std::vector<Pose>& link_poses) const;
   /// Full check at link poses already in the target frame (depths exact unless `exact_depth` is
   /// false: see GraspChecker::check).
   CheckResult check_poses(const std::vector<Pose>& poses, bool exact_depth = true) const;

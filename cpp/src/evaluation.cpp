@@ -1,6 +1,7 @@
 // Scoring a grasp (close, check, contacts, epsilon) and fine-tuning it by local random search.
 #include <pairgrasp/evaluation.hpp>
 
+#include "collision_internal.hpp"
 #include "random_internal.hpp"
 #include "thread_pool.hpp"
 
@@ -197,9 +198,21 @@ FineTuneResult fine_tune(const GraspChecker& checker, const Pose& wrist, const E
   // (its force closure and a lower bound of its epsilon, or the full hull, still decide it).
   if (!out.start.pruned && out.start.quality.force_closure && out.start.quality.epsilon_computed)
     eo.quality.min_epsilon = std::max(eo.quality.min_epsilon, out.start.quality.epsilon);
+  // A trial that starts with a link penetrating stays pruned whatever the closing does (that link
+  // never moves), so it is not closed.
   std::vector<GraspEvaluation> trials(n);
-  detail::parallel_for(static_cast<std::size_t>(n), options.threads,
-                       [&](std::size_t k) { trials[k] = evaluate_checked(checker, poses[k], qs[k], eo, ref); });
+  detail::parallel_for(static_cast<std::size_t>(n), options.threads, [&](std::size_t k) {
+    if (checker.impl().penetrating(poses[k], hand.link_poses(qs[k]))) {
+      trials[k].wrist = poses[k];
+      trials[k].start_dofs = trials[k].dofs = qs[k];
+      trials[k].pruned = true;
+      trials[k].reason = "penetrating before closing";
+      trials[k].quality.reason = "pruned: " + trials[k].reason;
+      trials[k].quality.volume_exact = false;
+      return;
+    }
+    trials[k] = evaluate_checked(checker, poses[k], qs[k], eo, ref);
+  });
 
   const GraspEvaluation* best = out.start.pruned ? nullptr : &out.start;
   for (const GraspEvaluation& t : trials) {

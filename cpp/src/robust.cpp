@@ -80,6 +80,11 @@ RobustQuality robust_quality(const GraspChecker& checker, const Pose& wrist, con
       w.translation() -= kBackoffStep * (w.linear() * approach);
       backed[k] = 1;
     }
+    // Still penetrating: pruned after closing too (a penetrating link never moves), so not closed.
+    if (checker.impl().penetrating(w, links)) {
+      pruned[k] = 1;
+      return;
+    }
     EvaluateOptions ek = eo;
     ek.quality.contact.mu = mus[k];
     const GraspEvaluation e = evaluate_grasp(checker, w, start_dofs, ek);
