@@ -8,7 +8,9 @@
 ///    backs off along the hand's approach axis until the links no closing DOF moves (the Barrett
 ///    palm and knuckles) are clear, at most PipelineOptions::backoff (exponential search, then
 ///    bisection to h/2; a hand pruned at distance d with depth D stays pruned up to d + D − tol, so
-///    the search gives up as soon as that reaches the largest back-off), then each closing DOF whose
+///    the search gives up as soon as that reaches the largest back-off; where even the fully open
+///    fingers penetrate at the first clear distance, the farthest tried, the candidate is dropped
+///    there without the bisection), then each closing DOF whose
 ///    links still penetrate opens just enough (bisection between its aligned value and its open
 ///    limit, to a quarter of its step), keeping the aligned finger shape elsewhere. Only the links a
 ///    change moves are checked again. A candidate that does not clear is dropped.
