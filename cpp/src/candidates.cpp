@@ -50,7 +50,10 @@ class Settler {
  public:
   Settler(const GraspChecker::Impl& impl, const PipelineOptions& o, const Eigen::Vector3d& approach,
           const std::vector<char>& fixed, const std::vector<std::vector<char>>& moved)
-      : I_(impl), o_(o), approach_(approach), fixed_(fixed), moved_(moved), states_(impl.links.size()) {}
+      : I_(impl), o_(o), approach_(approach), fixed_(fixed), moved_(moved), rest_(fixed.size()),
+        states_(impl.links.size()) {
+    for (std::size_t l = 0; l < rest_.size(); ++l) rest_[l] = !fixed_[l];
+  }
 
   int checks = 0;
 
@@ -60,8 +63,6 @@ class Settler {
     out.start_dofs = c.dofs;
     out.settled = Settled::Dropped;
     const std::vector<char> all(states_.size(), 1);
-    std::vector<char> rest(states_.size());
-    for (std::size_t l = 0; l < rest.size(); ++l) rest[l] = !fixed_[l];
     // The palm group first: when it is bad the wrist backs off, and the fingers are only checked
     // where it stops.
     measure(c.pose, c.dofs, fixed_);
@@ -71,7 +72,7 @@ class Settler {
       if (!back_off(c, deepest(fixed_), out)) return;
       moved = true;
     }
-    measure(out.start_pose, c.dofs, rest);
+    measure(out.start_pose, c.dofs, rest_);
     if (!any_bad(all)) {
       out.settled = moved ? Settled::Adjusted : Settled::Aligned;
       return;
@@ -167,14 +168,13 @@ class Settler {
   // Whether, at `wrist` (palm group clear), some link is still bad with every bad closing DOF
   // fully open. Leaves the states of the links it measured.
   bool fingers_stuck(const Pose& wrist, const Candidate& c) {
-    std::vector<char> rest(states_.size()), bad_dof, moving;
-    for (std::size_t l = 0; l < rest.size(); ++l) rest[l] = !fixed_[l];
-    measure(wrist, c.dofs, rest);
-    if (!any_bad(rest)) return false;
+    std::vector<char> bad_dof, moving;
+    measure(wrist, c.dofs, rest_);
+    if (!any_bad(rest_)) return false;
     Eigen::VectorXd open;
     if (!bad_dofs(c, bad_dof, moving, open)) return true;
     measure(wrist, open, moving);
-    return any_bad(rest);
+    return any_bad(rest_);
   }
 
   // Bisection of every bad closing DOF between its aligned value and its open limit, to a quarter
@@ -211,6 +211,7 @@ class Settler {
   const Eigen::Vector3d& approach_;
   const std::vector<char>& fixed_;
   const std::vector<std::vector<char>>& moved_;
+  std::vector<char> rest_;  // the links some closing DOF moves (not fixed_)
   std::vector<LinkState> states_;
 };
 

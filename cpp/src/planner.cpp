@@ -4,11 +4,11 @@
 #include "thread_pool.hpp"
 
 #include <algorithm>
-#include <exception>
-#include <optional>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <exception>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
