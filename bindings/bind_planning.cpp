@@ -455,7 +455,7 @@ void bind_planning(pyb::module_& m) {
       .def(
           "finish",
           [](const CandidatePipeline& p, int top, int fine_tune, int iterations, std::uint64_t seed,
-             std::optional<double> time_left, const std::string& rank, int robust_samples, int robust_extra) {
+             std::optional<double> time_left, const std::string& rank, int robust_samples, int robust_pool) {
             FinishOptions o;
             o.top = top;
             o.fine_tune = fine_tune;
@@ -463,7 +463,7 @@ void bind_planning(pyb::module_& m) {
             o.seed = seed;
             o.rank = ranking_from_string(rank);
             o.robust.samples = robust_samples;
-            o.robust_extra = robust_extra;
+            o.robust_pool = robust_pool;
             if (time_left)
               o.deadline = std::chrono::steady_clock::now() +
                            std::chrono::duration_cast<std::chrono::steady_clock::duration>(
@@ -477,10 +477,10 @@ void bind_planning(pyb::module_& m) {
             return pyb::make_tuple(grasps, pyb::dict("fine_tune"_a = t.fine_tune, "robust"_a = t.robust));
           },
           "top"_a, "fine_tune"_a, "fine_tune_iterations"_a, "seed"_a, "time_left"_a = pyb::none(),
-          "rank"_a = "robust", "robust_samples"_a = RobustOptions().samples, "robust_extra"_a = FinishOptions().robust_extra,
+          "rank"_a = "robust", "robust_samples"_a = RobustOptions().samples, "robust_pool"_a = FinishOptions().robust_pool,
           "Rank the evaluated candidates, fine-tune the `fine_tune` best (seed + rank; none starts after `time_left` "
           "seconds), drop near-duplicates, score them with every contact and return (at most `top` RankedGrasp, best "
-          "first; {'fine_tune', 'robust'} seconds). rank 'robust': the top + robust_extra best by epsilon are scored "
+          "first; {'fine_tune', 'robust'} seconds). rank 'robust': the max(top, robust_pool) best by epsilon are scored "
           "by robust_quality (robust_samples each) and ranked by force-closure probability, then robust epsilon; "
           "'epsilon': by force closure and epsilon.");
 

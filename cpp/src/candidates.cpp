@@ -369,7 +369,7 @@ ChunkReport CandidatePipeline::process(const std::vector<Candidate>& candidates)
 }
 
 int hull_rank_for(const FinishOptions& options) {
-  return std::max(options.top + (options.rank == Ranking::Robust ? options.robust_extra : 0), options.fine_tune);
+  return std::max({options.top, options.rank == Ranking::Robust ? options.robust_pool : 0, options.fine_tune});
 }
 
 GraspQuality CandidatePipeline::score_reduced(const Contacts& k, double threshold) const {
@@ -382,8 +382,8 @@ GraspQuality CandidatePipeline::score_reduced(const Contacts& k, double threshol
 
 std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options, FinishTimings* timings) const {
   const auto t_start = Clock::now();
-  if (options.robust_extra < 0)
-    throw std::invalid_argument("robust_extra: expected an integer >= 0, got " + std::to_string(options.robust_extra));
+  if (options.robust_pool < 1)
+    throw std::invalid_argument("robust_pool: expected an integer >= 1, got " + std::to_string(options.robust_pool));
   if (options.top < 1) throw std::invalid_argument("top: expected an integer >= 1, got " + std::to_string(options.top));
   if (options.fine_tune < 0 || options.fine_tune_iterations < 0)
     throw std::invalid_argument("fine_tune: expected counts >= 0");
@@ -429,7 +429,7 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
 
   // Near-duplicates (same wrist position within h, DOFs within half a step) are returned once.
   const bool robust = options.rank == Ranking::Robust;
-  const int pool = robust ? options.top + options.robust_extra : options.top;
+  const int pool = robust ? std::max(options.top, options.robust_pool) : options.top;
   std::vector<RankedGrasp> chosen;
   std::set<std::vector<std::int64_t>> signatures;
   for (RankedGrasp& g : tuned) {

@@ -51,7 +51,7 @@ Stages (the keys of :attr:`PlanResult.timings`):
     The ``fine_tune`` best distinct grasps are refined by :func:`pairgrasp.fine_tune` (its trials on
     the thread pool), and the grasps that may be returned are scored again with every contact.
 ``robust`` (C++, ``rank="robust"``)
-    The ``top + 5`` best distinct grasps by epsilon are closed and scored again at
+    The ``max(top, 10)`` best distinct grasps by epsilon are closed and scored again at
     ``robust_samples`` perturbations each (:func:`pairgrasp.robust_quality`: wrist N(0, 1 mm) and
     N(0, 1 degree), friction within ±20% of ``mu``), and the ``top`` most robust are returned.
 

@@ -10,6 +10,7 @@ import pytest
 
 import pairgrasp as pg
 
+from conftest import TARGETS
 from test_collision import BARRETT, JAW, box_mesh
 
 # A box 50 mm (x) by 40 mm (y) by 60 mm (z) centred at the origin, gripped across x by the jaw from
@@ -195,6 +196,21 @@ def test_plans_are_ranked_by_robustness(barrett_flask):
     doc = result.to_dict()
     assert doc["parameters"]["rank"] == "robust" and doc["parameters"]["robust_samples"] == 8
     assert all("force_closure_probability" in g and "robust_epsilon" in g for g in doc["grasps"])
+
+
+def test_the_first_grasps_do_not_depend_on_how_many_are_asked_for():
+    # The robust ranking scores a pool of max(top, 10) grasps, so asking for 3 grasps returns the
+    # first 3 of 5. (With a pool of top + 5, as before, the demo's plan of the flask returned
+    # another rank-3 grasp for --top 3 than for --top 5.)
+    planner = pg.Planner(str(BARRETT), str(TARGETS / "flask.stl"), paint=str(TARGETS / "flask.paint.json"), seed=1)
+    five = planner.plan(top=5, progress=False)
+    three = planner.plan(top=3, progress=False)
+    assert len(five.grasps) == 5 and len(three.grasps) == 3
+    for a, b in zip(three.grasps, five.grasps):
+        np.testing.assert_array_equal(a.wrist_pose, b.wrist_pose)
+        np.testing.assert_array_equal(a.dofs, b.dofs)
+        assert (a.force_closure_probability, a.robust_epsilon, a.epsilon) == \
+            (b.force_closure_probability, b.robust_epsilon, b.epsilon)
 
 
 @pytest.mark.slow

@@ -139,17 +139,17 @@ struct FinishOptions {
   /// No fine-tuning trial starts after this time point (an anytime plan); unset: no limit.
   std::optional<std::chrono::steady_clock::time_point> deadline;
   Ranking rank = Ranking::Robust;  ///< how the returned grasps are ordered
-  /// Ranking::Robust: the `top + robust_extra` best distinct grasps by epsilon are scored by
+  /// Ranking::Robust: the max(top, robust_pool) best distinct grasps by epsilon are scored by
   /// robust_quality() (with RobustOptions::samples, translation_sigma, rotation_sigma,
   /// friction_spread and quantile from `robust`; the pipeline's scoring and threads; the seed
-  /// seed + 0x9E3779B97F4A7C15 (candidate + 1)) and the `top` most robust returned.
+  /// seed + 0x9E3779B97F4A7C15 (candidate + 1)) and the `top` most robust returned. The pool does
+  /// not shrink with `top`, so the first grasps do not depend on how many are asked for.
   RobustOptions robust;
-  int robust_extra = 5;
+  int robust_pool = 10;
 };
 
 /// The PipelineOptions::hull_rank under which every candidate finish() can pick (fine-tunes, or
-/// scores robustly) has its exact epsilon: max(top, plus robust_extra when ranking robustly,
-/// fine_tune).
+/// scores robustly) has its exact epsilon: max(top, robust_pool when ranking robustly, fine_tune).
 int hull_rank_for(const FinishOptions& options);
 
 /// Seconds spent in the parts of finish().
