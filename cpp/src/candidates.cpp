@@ -407,7 +407,10 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     fo.seed = options.seed + static_cast<std::uint64_t>(k);
     fo.evaluate = options_.evaluate;
     fo.threads = options_.threads;
-    FineTuneResult ft = fine_tune(checker_, c.start_pose, c.start_dofs, fo);
+    // The search's evaluation of the start is reused where its epsilon is exact (the same closing
+    // and scoring as fine_tune's own).
+    FineTuneResult ft = c.evaluation.quality.epsilon_computed ? fine_tune(checker_, c.evaluation, fo)
+                                                              : fine_tune(checker_, c.start_pose, c.start_dofs, fo);
     RankedGrasp g;
     g.candidate = kept[k];
     g.evaluation = ft.best ? std::move(*ft.best) : c.evaluation;

@@ -148,8 +148,12 @@ bool better_grasp(const GraspEvaluation& a, const GraspEvaluation& b) {
          std::make_tuple(b.quality.force_closure, b.quality.epsilon, b.quality.volume);
 }
 
-FineTuneResult fine_tune(const GraspChecker& checker, const Pose& wrist, const Eigen::VectorXd& dofs,
-                         const FineTuneOptions& options) {
+namespace {
+
+/// fine_tune() from `start` when given (the evaluation of (wrist, dofs)), else from the start
+/// closed and scored here.
+FineTuneResult fine_tune_from(const GraspChecker& checker, const Pose& wrist, const Eigen::VectorXd& dofs,
+                              const GraspEvaluation* start, const FineTuneOptions& options) {
   const Hand& hand = checker.hand();
   check_rigid(wrist, "wrist_pose");
   hand.link_poses(dofs);
@@ -171,7 +175,7 @@ FineTuneResult fine_tune(const GraspChecker& checker, const Pose& wrist, const E
   check_options(eo, ref);
 
   FineTuneResult out;
-  out.start = evaluate_checked(checker, wrist, dofs, eo, ref);
+  out.start = start ? *start : evaluate_checked(checker, wrist, dofs, eo, ref);
   const Points& cp = out.start.contacts.points;
   const Eigen::Vector3d pivot = cp.rows() ? Eigen::Vector3d(cp.colwise().mean().transpose()) : wrist.translation();
   const Eigen::VectorXd lower = hand.dof_lower(), upper = hand.dof_upper();
@@ -230,6 +234,19 @@ FineTuneResult fine_tune(const GraspChecker& checker, const Pose& wrist, const E
     out.reason = "start pruned (" + out.start.reason + ") and none of " + std::to_string(n) + " trials was unpruned";
   }
   return out;
+}
+
+}  // namespace
+
+FineTuneResult fine_tune(const GraspChecker& checker, const Pose& wrist, const Eigen::VectorXd& dofs,
+                         const FineTuneOptions& options) {
+  return fine_tune_from(checker, wrist, dofs, nullptr, options);
+}
+
+FineTuneResult fine_tune(const GraspChecker& checker, const GraspEvaluation& start, const FineTuneOptions& options) {
+  if (!start.quality.epsilon_computed)
+    throw std::invalid_argument("start: its epsilon is a bound, not computed (a search skipped its hull)");
+  return fine_tune_from(checker, start.wrist, start.start_dofs, &start, options);
 }
 
 }  // namespace pairgrasp

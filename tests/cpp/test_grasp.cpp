@@ -1,6 +1,7 @@
 // Closing onto contact and contacts, against facts from the dimensions: a parallel jaw closes on
 // a box to the box's width, runs to its limit on air, stops at an obstacle plate; its contacts
 // lie on the two gripped faces with normals -+x; the Barrett hand's fingers stop at a box.
+#include <pairgrasp/evaluation.hpp>
 #include <pairgrasp/grasp.hpp>
 
 #include <gtest/gtest.h>
@@ -195,6 +196,41 @@ TEST(Grasp, BarrettFingersStopAtABoxEdgeAtTheAnalyticAngle) {
     const bool on_top = std::abs(z - 0.15) < 1e-12 && y >= 0.03 - in && y <= 0.03 + 1e-12;
     EXPECT_TRUE(on_side || on_top) << c.target_points.row(k);
   }
+}
+
+TEST(Grasp, FineTuningFromAGivenStartEqualsFineTuningFromItsPose) {
+  // The planner hands fine_tune() the search's evaluation of a candidate instead of closing and
+  // scoring it again: same trials, same best grasp, bit for bit.
+  const Hand bh = th::barrett();
+  const Mesh box = tmesh::box_mesh(Vector3d(-0.03, -0.03, 0.1), Vector3d(0.03, 0.03, 0.15), 2, "box");
+  const GraspChecker checker(bh, box);
+  FineTuneOptions fo;
+  fo.iterations = 8;
+  fo.seed = 5;
+  fo.threads = 2;
+  fo.evaluate.contacts_per_link = 4;
+  fo.evaluate.quality.joggle = true;
+  EvaluateOptions eo = fo.evaluate;
+  eo.close = true;
+  const Eigen::Vector4d q(0, 0, 0, 0);
+  const GraspEvaluation start = evaluate_grasp(checker, Pose::Identity(), q, eo);
+  ASSERT_FALSE(start.pruned);
+  ASSERT_TRUE(start.quality.epsilon_computed);
+  const FineTuneResult a = fine_tune(checker, Pose::Identity(), q, fo);
+  const FineTuneResult b = fine_tune(checker, start, fo);
+  EXPECT_EQ(a.trials, b.trials);
+  EXPECT_EQ(a.kept, b.kept);
+  EXPECT_EQ(a.improvements, b.improvements);
+  EXPECT_EQ(a.improved, b.improved);
+  EXPECT_EQ(a.start.quality.epsilon, b.start.quality.epsilon);
+  ASSERT_TRUE(a.best && b.best);
+  EXPECT_TRUE(a.best->wrist.isApprox(b.best->wrist, 0.0));
+  EXPECT_EQ(a.best->dofs, b.best->dofs);
+  EXPECT_EQ(a.best->quality.epsilon, b.best->quality.epsilon);
+  // A start whose epsilon a search only bounded is refused.
+  GraspEvaluation bounded = start;
+  bounded.quality.epsilon_computed = false;
+  EXPECT_THROW(fine_tune(checker, bounded, fo), std::invalid_argument);
 }
 
 TEST(Grasp, BadInputThrows) {

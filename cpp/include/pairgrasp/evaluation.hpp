@@ -129,4 +129,11 @@ struct FineTuneResult {
 FineTuneResult fine_tune(const GraspChecker& checker, const Pose& wrist, const Eigen::VectorXd& dofs,
                          const FineTuneOptions& options = {});
 
+/// fine_tune() from a start already closed and scored: `start` must be what evaluate_grasp()
+/// returns for (start.wrist, start.start_dofs) with options.evaluate and `close` set (a search's
+/// evaluation of the candidate, reused instead of computed again). Its epsilon must be exact
+/// (GraspQuality::epsilon_computed); std::invalid_argument otherwise.
+FineTuneResult fine_tune(const GraspChecker& checker, const GraspEvaluation& start,
+                         const FineTuneOptions& options = {});
+
 }  // namespace pairgrasp
