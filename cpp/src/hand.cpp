@@ -77,14 +77,14 @@ Eigen::VectorXd Hand::Impl::checked_dofs(const Eigen::VectorXd& dofs_in, bool cl
   for (std::size_t i = 0; i < dofs.size(); ++i) {
     const Dof& d = dofs[i];
     double& v = out[static_cast<Eigen::Index>(i)];
-    const std::string unit = d.linear ? " m" : " rad";
-    const std::string limits = "[" + num(d.lower) + ", " + num(d.upper) + "]" + unit;
-    if (!std::isfinite(v))
-      throw std::invalid_argument("dofs[" + std::to_string(i) + "] ('" + d.name + "'): value " + num(v) +
-                                  " is not finite (limits " + limits + ")");
-    if (!clamp && (v < d.lower - eps || v > d.upper + eps))
-      throw std::invalid_argument("dofs[" + std::to_string(i) + "] ('" + d.name + "'): value " + num(v) + unit +
-                                  " is outside its limits " + limits);
+    const bool finite = std::isfinite(v);
+    if (!finite || (!clamp && (v < d.lower - eps || v > d.upper + eps))) {  // messages built only here
+      const std::string unit = d.linear ? " m" : " rad";
+      const std::string limits = "[" + num(d.lower) + ", " + num(d.upper) + "]" + unit;
+      const std::string what = "dofs[" + std::to_string(i) + "] ('" + d.name + "'): value " + num(v);
+      throw std::invalid_argument(finite ? what + unit + " is outside its limits " + limits
+                                         : what + " is not finite (limits " + limits + ")");
+    }
     v = std::clamp(v, d.lower, d.upper);
   }
   return out;
