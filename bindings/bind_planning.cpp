@@ -558,7 +558,21 @@ void bind_planning(pyb::module_& m) {
             }
             return out;
           },
-          "samples"_a, "Aligns each sample (K, D): a list of K lists of AlignedPose, best first.");
+          "samples"_a, "Aligns each sample (K, D): a list of K lists of AlignedPose, best first.")
+      .def(
+          "match_fractions",
+          [](const GraspPlanner& p, const pyb::object& samples) {
+            const std::vector<Eigen::VectorXd> qs = samples_from(samples, static_cast<long>(p.hand().dofs().size()));
+            std::vector<double> r;
+            {
+              pyb::gil_scoped_release release;
+              r = p.match_fractions(qs);
+            }
+            return r;
+          },
+          "samples"_a,
+          "Early-rejection score of each sample (K, D): the fraction of its constellation's pairs that match a "
+          "stored target pair within the aligner's feature tolerance.");
 
   m.def(
       "hull_rank_for",

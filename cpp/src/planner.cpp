@@ -1,6 +1,8 @@
 // GraspPlanner (parameters, index, aligner, checker) and plan_samples (align -> pipeline -> grasps).
 #include <pairgrasp/planner.hpp>
 
+#include <pairgrasp/features.hpp>
+
 #include "thread_pool.hpp"
 
 #include <algorithm>
@@ -286,6 +288,28 @@ std::vector<AlignResult> GraspPlanner::align(const std::vector<Eigen::VectorXd>&
   cons.reserve(samples.size());
   for (const Eigen::VectorXd& q : samples) cons.push_back(constellation(q));
   return state_->aligner->align_many(cons);
+}
+
+std::vector<double> GraspPlanner::match_fractions(const std::vector<Eigen::VectorXd>& samples) const {
+  for (const Eigen::VectorXd& q : samples) state_->hand.link_poses(q);  // "dofs: ..." before any work
+  const PairIndex& index = state_->index.index;
+  const Eigen::Vector3d tolerance = state_->aligner->options().feature_tolerance;
+  const double d_max = state_->setup.d_max;
+  std::vector<double> out(samples.size(), 0.0);
+  detail::parallel_for(samples.size(), state_->options.threads, [&](std::size_t k) {
+    const Constellation c = constellation(samples[k]);
+    const Eigen::Index n = c.points.rows();
+    if (n < 2) return;
+    long matched = 0;
+    for (Eigen::Index i = 0; i < n; ++i)
+      for (Eigen::Index j = i + 1; j < n; ++j) {
+        const Eigen::Vector3d f = pair_feature(c.points.row(i).transpose(), -c.normals.row(i).transpose(),
+                                               c.points.row(j).transpose(), -c.normals.row(j).transpose());
+        if (f[0] <= d_max && index.count(f, tolerance) > 0) ++matched;
+      }
+    out[k] = static_cast<double>(matched) / static_cast<double>(n * (n - 1) / 2);
+  });
+  return out;
 }
 
 PlanReport plan_samples(const GraspPlanner& planner, const std::vector<Eigen::VectorXd>& samples,

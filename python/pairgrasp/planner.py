@@ -273,18 +273,9 @@ class Planner:
 
     def match_fraction(self, q) -> float:
         """Fraction of the gripper pairs at DOF sample ``q`` whose feature (normals flipped) matches at
-        least one target pair within the aligner's tolerance box: the early-rejection score."""
-        c = self.constellation(q)
-        pts, nrm = np.asarray(c.points), -np.asarray(c.normals)
-        if len(pts) < 2:
-            return 0.0
-        i, j = np.triu_indices(len(pts), 1)
-        feats = np.asarray(_core.pair_feature(pts[i], nrm[i], pts[j], nrm[j]))
-        keep = feats[:, 0] <= self.d_max
-        if not keep.any():
-            return 0.0
-        counts = np.asarray(self.tindex.index.count(feats[keep], np.asarray(self.aligner.tolerance, float)))
-        return float((counts > 0).sum()) / float(len(feats))
+        least one target pair within the aligner's tolerance box: the early-rejection score (C++,
+        ``GraspPlanner.match_fractions`` of many samples at once)."""
+        return float(self.core.match_fractions(np.asarray(q, float).reshape(1, -1))[0])
 
     # ---------------------------------------------------------------- pipeline
 
@@ -356,10 +347,8 @@ class Planner:
             keep = [True] * len(qs)
             if reject:
                 bar.start("schedule", len(qs))
-                fractions = []
-                for q in qs:
-                    fractions.append(self.match_fraction(q))
-                    bar.advance()
+                fractions = self.core.match_fractions(np.array(qs)) if qs else []
+                bar.advance(len(qs))
                 bar.finish()
                 if best_fraction[0] is None:  # the first stage (the whole grid, or fast's coarse grid)
                     best_fraction[0] = max(fractions, default=0.0)

@@ -271,6 +271,11 @@ def test_match_fraction_equals_brute_force(jaw_planner):
         f = np.asarray(pg.pair_feature(pts[i], nrm[i], pts[j], nrm[j]))
         hit = [np.any(np.all(np.abs(feats_t - x) <= tol, axis=1)) for x in f]
         assert jaw_planner.match_fraction(q) == pytest.approx(sum(hit) / len(f), abs=1e-12)
+    # The schedule scores many samples in one call (C++, on the thread pool): the same values.
+    qs = np.linspace(jaw_planner.hand.dof_lower, jaw_planner.hand.dof_upper, 7)
+    assert list(jaw_planner.core.match_fractions(qs)) == [jaw_planner.match_fraction(q) for q in qs]
+    with pytest.raises(ValueError, match="dofs"):
+        jaw_planner.core.match_fractions(np.full((2, len(jaw_planner.hand.dof_lower)), np.nan))
 
 
 # ----------------------------------------------------------------------------- errors

@@ -122,6 +122,11 @@ class GraspPlanner {
   /// Aligns each sample's constellation (all threads, one sample per task); result k belongs to
   /// samples[k], best pose first, at most options().max_poses poses.
   std::vector<AlignResult> align(const std::vector<Eigen::VectorXd>& samples) const;
+  /// Early-rejection score of each sample (all threads): the fraction of its constellation's
+  /// pairs whose feature (normals flipped, d <= d_max) matches at least one stored target pair
+  /// within the aligner's feature tolerance (0 for fewer than 2 points). A sample whose fraction
+  /// is small cannot collect the votes of a good alignment (the paper's Figure 7).
+  std::vector<double> match_fractions(const std::vector<Eigen::VectorXd>& samples) const;
 
  private:
   struct State;
