@@ -458,9 +458,10 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     if (static_cast<int>(chosen.size()) >= pool) break;
   }
 
-  // The returned grasps are scored again with every contact, on exact hulls (exact epsilon). The robust ranking
-  // orders its pool by the robust measures and then by the search's epsilon, so that only the `top`
-  // it returns need the scoring; the epsilon ranking orders by the scoring's epsilon.
+  // The returned grasps are scored again with every contact, their epsilon exact (the whole hull,
+  // or above kFinalHullWrenches the active set). The robust ranking orders its pool by the robust
+  // measures and then by the search's epsilon, so that only the `top` it returns need the scoring;
+  // the epsilon ranking orders by the scoring's epsilon.
   QualityOptions full = options_.evaluate.quality;
   full.open_volume = true;
   full.volume = true;
