@@ -4,7 +4,7 @@
     python bench/bench_sim.py --targets flask --random 2 --trials 2    # a quick look
 
 For each target the Barrett hand is planned with the `fast` schedule twice, ranked by robustness
-(`rank="robust"`, the default) and by epsilon (`rank="epsilon"`, the paper's), and the top 5 of each
+(`rank="robust"`) and by epsilon (`rank="epsilon"`, the paper's and the default), and the top 5 of each
 are simulated (pairgrasp.Simulator: close, lift, turn gravity, shake); `--methods grid` adds the
 `grid` schedule (at `--grid-step`). Targets are the bundled ones (with their paint) and meshes
 shipped in the pybullet wheel (pybullet_data, none made for pairgrasp; scaled to 0.1 m along their

@@ -70,13 +70,14 @@ class PlanParams:
             again with every contact. None: every contact throughout (slower by ~10x on the Barrett
             hand, whose links report patches of ~100 contacts).
         mu, edges: friction coefficient and friction-pyramid edges.
-        rank: how the returned grasps are ordered. ``"robust"``: the ``max(top, 10)`` best distinct
+        rank: how the returned grasps are ordered. ``"epsilon"`` (the default): the paper's ranking
+            (force closure, then epsilon). ``"robust"``: the ``max(top, 10)`` best distinct
             grasps by epsilon are closed and scored again at ``robust_samples`` perturbations each (wrist
             N(0, 1 mm) per axis and N(0, 1 degree) about a random axis, friction uniform within
             ±20% of ``mu``: :func:`pairgrasp.robust_quality`) and the ``top`` are returned by
             probability of force closure, then the lower quartile of epsilon (the pool does not
-            shrink with ``top``, so the first grasps do not depend on ``top``). ``"epsilon"``: the
-            paper's ranking (force closure, then epsilon).
+            shrink with ``top``, so the first grasps do not depend on ``top``). In the physics check
+            (docs/physics.md) the epsilon ranking's rank-1 grasp held more often, hence the default.
         robust_samples: perturbations per grasp of the robust ranking.
         top: grasps returned.
         seed: seed of the fine-tuning.
@@ -111,7 +112,7 @@ class PlanParams:
     contacts_per_link: Optional[int] = 4
     mu: float = 0.5
     edges: int = 8
-    rank: str = "robust"
+    rank: str = "epsilon"
     robust_samples: int = 8
     top: int = 10
     seed: int = 0

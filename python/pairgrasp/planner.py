@@ -59,8 +59,9 @@ Ranking (``rank="epsilon"``, the paper's): force closure first, then epsilon, th
 Q_A says how well the hand's shape matched the surface before closing, and the planned candidates
 show only a weak relation between the two (Figure 8, ``docs/experiments.md``), so Q_A breaks ties
 and orders grasps that are not force-closure. The highest epsilon is often a grasp on the edge of
-where it works: ``rank="robust"`` (the default) orders the final grasps by the probability of
-force closure under pose and friction error, then the lower quartile of epsilon, then as above.
+where it works: ``rank="robust"`` orders the final grasps by the probability of force closure
+under pose and friction error, then the lower quartile of epsilon, then as above. Ranking by
+epsilon is the default: in the physics check (docs/physics.md) its rank-1 grasp held more often.
 
 Everything is deterministic for a given seed and thread count independent: alignment merges votes
 in a fixed order, candidates are processed in sample order, and the fine-tuning of the grasp of

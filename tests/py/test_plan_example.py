@@ -26,7 +26,7 @@ FLASK = dict(hand=str(MODELS / "barrett" / "barrett.json"), target=str(MODELS / 
 @pytest.fixture(scope="module")
 def grid_plan():
     planner = pg.Planner(FLASK["hand"], FLASK["target"], paint=FLASK["paint"], top=5, seed=0)
-    return planner, planner.plan(schedule="grid", step=0.5, progress=False)
+    return planner, planner.plan(schedule="grid", step=0.5, rank="robust", progress=False)
 
 
 def test_cpp_plan_samples_equals_the_python_planner(grid_plan):
@@ -34,7 +34,8 @@ def test_cpp_plan_samples_equals_the_python_planner(grid_plan):
     lo, hi = np.asarray(planner.hand.dof_lower), np.asarray(planner.hand.dof_upper)
     axes = pg.dof_grid(lo, hi, planner.steps(0.5))
     samples = np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(axes), -1).T  # last DOF fastest
-    grasps, candidates, counts, _ = pg.plan_samples(planner.core, samples, step=0.5, top=5, seed=0)
+    grasps, candidates, counts, _ = pg.plan_samples(planner.core, samples, step=0.5, top=5, seed=0,
+                                                  rank="robust")
     assert counts["samples"] == result.counts["samples"] == len(samples)
     for key in ("aligned_poses", "settled", "settled_aligned", "evaluated", "force_closure"):
         assert counts[key] == result.counts[key], key

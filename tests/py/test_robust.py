@@ -187,8 +187,24 @@ def test_grasps_file_robust_fields_are_optional_and_checked():
 
 # ----- the planner -----
 
-def test_plans_are_ranked_by_robustness(barrett_flask):
-    planner, result = barrett_flask
+def test_plans_are_ranked_by_epsilon_by_default(barrett_flask):
+    # The physics check's rank-1 grasp held more often ranked by epsilon (docs/physics.md).
+    _, result = barrett_flask
+    keys = [(g.force_closure, g.epsilon) for g in result.grasps]
+    assert keys == sorted(keys, reverse=True)
+    assert all(g.force_closure_probability is None for g in result.grasps)
+    assert result.timings["robust"] == 0
+    assert result.to_dict()["parameters"]["rank"] == "epsilon"
+
+
+@pytest.fixture(scope="module")
+def robust_flask(barrett_flask):
+    planner, _ = barrett_flask
+    return planner, planner.plan(rank="robust", progress=False)
+
+
+def test_plans_are_ranked_by_robustness(robust_flask):
+    planner, result = robust_flask
     keys = [(g.force_closure_probability, g.robust_epsilon) for g in result.grasps]
     assert all(0.0 <= p <= 1.0 and e >= 0.0 for p, e in keys)
     assert keys == sorted(keys, reverse=True)
@@ -203,8 +219,8 @@ def test_the_first_grasps_do_not_depend_on_how_many_are_asked_for():
     # first 3 of 5. (With a pool of top + 5, as before, the demo's plan of the flask returned
     # another rank-3 grasp for --top 3 than for --top 5.)
     planner = pg.Planner(str(BARRETT), str(TARGETS / "flask.stl"), paint=str(TARGETS / "flask.paint.json"), seed=1)
-    five = planner.plan(top=5, progress=False)
-    three = planner.plan(top=3, progress=False)
+    five = planner.plan(top=5, rank="robust", progress=False)
+    three = planner.plan(top=3, rank="robust", progress=False)
     assert len(five.grasps) == 5 and len(three.grasps) == 3
     for a, b in zip(three.grasps, five.grasps):
         np.testing.assert_array_equal(a.wrist_pose, b.wrist_pose)
@@ -214,8 +230,8 @@ def test_the_first_grasps_do_not_depend_on_how_many_are_asked_for():
 
 
 @pytest.mark.slow
-def test_the_robust_ranking_picks_from_the_epsilon_rankings_best(barrett_flask):
-    planner, robust = barrett_flask
+def test_the_robust_ranking_picks_from_the_epsilon_rankings_best(robust_flask):
+    planner, robust = robust_flask
     by_eps = planner.plan(rank="epsilon", top=len(robust.grasps) + 5, progress=False)
     keys = [(g.force_closure, g.epsilon) for g in by_eps.grasps]
     assert keys == sorted(keys, reverse=True)

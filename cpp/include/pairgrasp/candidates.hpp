@@ -138,7 +138,9 @@ struct FinishOptions {
   double angle = 0.05235987755982989;  ///< largest fine-tuning rotation (rad), 3 degrees
   /// No fine-tuning trial starts after this time point (an anytime plan); unset: no limit.
   std::optional<std::chrono::steady_clock::time_point> deadline;
-  Ranking rank = Ranking::Robust;  ///< how the returned grasps are ordered
+  /// How the returned grasps are ordered. Epsilon by default: in the physics check (docs/physics.md)
+  /// the epsilon ranking's rank-1 grasp held more often than the robust ranking's.
+  Ranking rank = Ranking::Epsilon;
   /// Ranking::Robust: the max(top, robust_pool) best distinct grasps by epsilon are scored by
   /// robust_quality() (with RobustOptions::samples, translation_sigma, rotation_sigma,
   /// friction_spread and quantile from `robust`; the pipeline's scoring and threads; the seed
