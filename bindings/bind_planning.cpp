@@ -477,7 +477,7 @@ void bind_planning(pyb::module_& m) {
             return pyb::make_tuple(grasps, pyb::dict("fine_tune"_a = t.fine_tune, "robust"_a = t.robust));
           },
           "top"_a, "fine_tune"_a, "fine_tune_iterations"_a, "seed"_a, "time_left"_a = pyb::none(),
-          "rank"_a = "epsilon", "robust_samples"_a = RobustOptions().samples, "robust_pool"_a = FinishOptions().robust_pool,
+          "rank"_a = to_string(FinishOptions().rank), "robust_samples"_a = RobustOptions().samples, "robust_pool"_a = FinishOptions().robust_pool,
           "Rank the evaluated candidates, fine-tune the `fine_tune` best (seed + rank; none starts after `time_left` "
           "seconds), drop near-duplicates, score them with every contact and return (at most `top` RankedGrasp, best "
           "first; {'fine_tune', 'robust'} seconds). rank 'robust': the max(top, robust_pool) best by epsilon are scored "
@@ -625,7 +625,7 @@ void bind_planning(pyb::module_& m) {
       "step"_a = 0.0, "top"_a = PlanOptions().top, "fine_tune"_a = PlanOptions().fine_tune,
       "fine_tune_iterations"_a = PlanOptions().fine_tune_iterations, "seed"_a = 0, "mu"_a = 0.5, "edges"_a = 8,
       "contacts_per_link"_a = PlanOptions().contacts_per_link, "max_evaluations"_a = -1, "hull_rank"_a = -1,
-      "rank"_a = "epsilon", "robust_samples"_a = PlanOptions().robust_samples,
+      "rank"_a = to_string(PlanOptions().rank), "robust_samples"_a = PlanOptions().robust_samples,
       "The C++ planning call: align each sample (K, D), settle, evaluate, rank and fine-tune, `chunk` samples at a "
       "time. Returns (grasps: list of RankedGrasp, candidates: list of EvaluatedCandidate, counts, timings).");
 #undef PG_PLANNER_ARGS

@@ -30,7 +30,7 @@ struct Args {
   int top = 10;
   unsigned long seed = 0;
   int threads = 0;
-  pg::Ranking rank = pg::Ranking::Epsilon;
+  pg::Ranking rank = pg::PlanOptions().rank;
 };
 
 [[noreturn]] void usage(const std::string& why) {

@@ -149,7 +149,7 @@ struct PlanOptions {
   /// PipelineOptions::hull_rank: only candidates that can reach this many best epsilons pay for
   /// the full hull (< 0: hull_rank_for() of the finish options; 0: every candidate).
   int hull_rank = -1;
-  Ranking rank = Ranking::Epsilon;  ///< FinishOptions::rank
+  Ranking rank = FinishOptions().rank;  ///< FinishOptions::rank
   int robust_samples = 8;          ///< RobustOptions::samples of the robust ranking
 };
 
