@@ -475,10 +475,18 @@ bool GraspChecker::Impl::active_within(int l, const Pose& pose, double gap) cons
   if (!options.use_distance_field || !T.field || tree.empty()) return false;
   // Every node's representative is a point of the active faces: its unsigned distance to the
   // target, at most max(upper, -lower) of its field interval, bounds the link's from above (and
-  // the obstacles only lower link_distance()'s minimum).
-  for (const vd::SphereTree::Node& n : tree.nodes) {
+  // the obstacles only lower link_distance()'s minimum). A ball certainly beyond the gap holds no
+  // such representative (each lies in the balls above it), so its subtree is skipped.
+  std::vector<std::int32_t>& stack = scratch().stack;
+  stack.assign(tree.roots.begin(), tree.roots.end());
+  while (!stack.empty()) {
+    const vd::SphereTree::Node& n = tree.nodes[stack.back()];
+    stack.pop_back();
+    const FieldSample c = T.field->sample(pose * n.centre);
+    if (std::max({c.lower, -c.upper, 0.0}) - n.radius > gap) continue;
     const FieldSample f = T.field->sample(pose * n.rep);
     if (std::max(f.upper, -f.lower) <= gap) return true;
+    if (n.left >= 0) stack.push_back(n.left + 1), stack.push_back(n.left);
   }
   return false;
 }
