@@ -3,9 +3,9 @@
     python bench/bench_sim.py --jobs 2 --json sim.json     # bundled targets and 4 pybullet_data meshes
     python bench/bench_sim.py --targets flask --random 2 --trials 2    # a quick look
 
-For each target the Barrett hand is planned with the `fast` schedule twice, ranked by robustness
-(`rank="robust"`) and by epsilon (`rank="epsilon"`, the paper's and the default), and the top 5 of each
-are simulated (pairgrasp.Simulator: close, lift, turn gravity, shake); `--methods grid` adds the
+For each target the Barrett hand is planned with the `fast` schedule three times, ranked by
+robustness (`rank="robust"`), by epsilon (`rank="epsilon"`, the paper's and the default) and by
+enclosure (`rank="enclosure"`: links in contact), and the top 5 of each are simulated (pairgrasp.Simulator: close, lift, turn gravity, shake); `--methods grid` adds the
 `grid` schedule (at `--grid-step`). Targets are the bundled ones (with their paint) and meshes
 shipped in the pybullet wheel (pybullet_data, none made for pairgrasp; scaled to 0.1 m along their
 longest side, every face free). The baseline are grasps sampled at random around the target as
@@ -118,12 +118,14 @@ def wilson(k, n, z=1.96):
     return c - h, c + h
 
 
-PLANNED = {"robust": ("fast", "robust"), "epsilon": ("fast", "epsilon"), "grid": ("grid", "robust")}
-METHODS = ("robust", "epsilon", "verified", "grid", "random", "random-fc")
+PLANNED = {"robust": ("fast", "robust"), "epsilon": ("fast", "epsilon"), "enclosure": ("fast", "enclosure"),
+           "grid": ("grid", "robust")}
+METHODS = ("robust", "epsilon", "enclosure", "verified", "grid", "random", "random-fc")
 
 
 def _label(method):
     return {"robust": "planner, robust ranking", "epsilon": "planner, epsilon ranking",
+            "enclosure": "planner, enclosure ranking",
             "verified": "planner, robust top 5 verified", "grid": "planner, grid, robust ranking",
             "random": "random approach",
             "random-fc": "random approach, force-closure only"}[method]
@@ -324,7 +326,7 @@ def main(argv=None) -> int:
     ap.add_argument("--random", type=int, default=5, help="random-approach grasps per target")
     ap.add_argument("--trials", type=int, default=4, help="trials per grasp (the first as planned)")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--methods", nargs="+", choices=METHODS, default=["robust", "epsilon", "random"],
+    ap.add_argument("--methods", nargs="+", choices=METHODS, default=["robust", "epsilon", "enclosure", "random"],
                     help="rankings, schedules and baselines to run")
     ap.add_argument("--jobs", type=int, default=1, help="targets run at once (processes)")
     ap.add_argument("--no-paint", action="store_true", help="plan with every face free")

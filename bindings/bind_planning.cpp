@@ -482,7 +482,8 @@ void bind_planning(pyb::module_& m) {
           "seconds), drop near-duplicates, score them with every contact and return (at most `top` RankedGrasp, best "
           "first; {'fine_tune', 'robust'} seconds). rank 'robust': the max(top, robust_pool) best by epsilon are scored "
           "by robust_quality (robust_samples each) and ranked by force-closure probability, then robust epsilon; "
-          "'epsilon': by force closure and epsilon.");
+          "'epsilon': by force closure and epsilon; 'enclosure': the same pool by force closure, then the hand links in "
+          "contact, then epsilon.");
 
   pyb::class_<PlannerSetup>(m, "PlannerSetup", "Parameters resolved from the hand and the target (resolve_planner).")
       .def_readonly("edge", &PlannerSetup::edge, "Unit-facet edge (m).")

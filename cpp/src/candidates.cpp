@@ -23,12 +23,20 @@ const char* to_string(Settled settled) {
   return "unknown";
 }
 
-const char* to_string(Ranking ranking) { return ranking == Ranking::Robust ? "robust" : "epsilon"; }
+const char* to_string(Ranking ranking) {
+  switch (ranking) {
+    case Ranking::Robust: return "robust";
+    case Ranking::Epsilon: return "epsilon";
+    case Ranking::Enclosure: return "enclosure";
+  }
+  return "unknown";
+}
 
 Ranking ranking_from_string(const std::string& name) {
   if (name == "robust") return Ranking::Robust;
   if (name == "epsilon") return Ranking::Epsilon;
-  throw std::invalid_argument("rank: expected 'robust' or 'epsilon', got '" + name + "'");
+  if (name == "enclosure") return Ranking::Enclosure;
+  throw std::invalid_argument("rank: expected 'robust', 'epsilon' or 'enclosure', got '" + name + "'");
 }
 
 namespace {
@@ -379,7 +387,7 @@ ChunkReport CandidatePipeline::process(const std::vector<Candidate>& candidates)
 }
 
 int hull_rank_for(const FinishOptions& options) {
-  return std::max({options.top, options.rank == Ranking::Robust ? options.robust_pool : 0, options.fine_tune});
+  return std::max({options.top, options.rank != Ranking::Epsilon ? options.robust_pool : 0, options.fine_tune});
 }
 
 GraspQuality CandidatePipeline::score_reduced(const Contacts& k, double threshold) const {
@@ -441,8 +449,8 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
                    [&](const RankedGrasp& a, const RankedGrasp& b) { return tuned_key(a) > tuned_key(b); });
 
   // Near-duplicates (same wrist position within h, DOFs within half a step) are returned once.
-  const bool robust = options.rank == Ranking::Robust;
-  const int pool = robust ? std::max(options.top, options.robust_pool) : options.top;
+  const bool robust = options.rank == Ranking::Robust, enclosure = options.rank == Ranking::Enclosure;
+  const int pool = robust || enclosure ? std::max(options.top, options.robust_pool) : options.top;
   std::vector<RankedGrasp> chosen;
   std::set<std::vector<std::int64_t>> signatures;
   for (RankedGrasp& g : tuned) {
@@ -459,9 +467,9 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
   }
 
   // The returned grasps are scored again with every contact, their epsilon exact (the whole hull,
-  // or above kFinalHullWrenches the active set). The robust ranking orders its pool by the robust
-  // measures and then by the search's epsilon, so that only the `top` it returns need the scoring;
-  // the epsilon ranking orders by the scoring's epsilon.
+  // or above kFinalHullWrenches the active set). The robust and enclosure rankings order their
+  // pool by their own measures and then by the search's epsilon, so that only the `top` they
+  // return need the scoring; the epsilon ranking orders by the scoring's epsilon.
   QualityOptions full = options_.evaluate.quality;
   full.open_volume = true;
   full.volume = true;
@@ -481,18 +489,24 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     const auto t_robust = Clock::now();
     score_robust(chosen, options);
     robust_seconds = seconds_since(t_robust);
-  } else {
+  } else if (!enclosure) {
     rescore(chosen);
   }
+  std::vector<int> links_in_contact(chosen.size(), 0);  // distinct hand links touching (enclosure)
+  if (enclosure)
+    for (std::size_t i = 0; i < chosen.size(); ++i) {
+      const std::vector<int>& links = chosen[i].evaluation.contacts.links;
+      links_in_contact[i] = static_cast<int>(std::set<int>(links.begin(), links.end()).size());
+    }
   std::vector<std::size_t> order(chosen.size());
   std::iota(order.begin(), order.end(), 0);
   auto final_key = [&](std::size_t i) {
     const Candidate& c = evaluated_[chosen[i].candidate].candidate;
     const RobustQuality none;
     const RobustQuality& r = chosen[i].robust ? *chosen[i].robust : none;
-    const GraspQuality& q = robust ? chosen[i].evaluation.quality : chosen[i].quality;
-    return std::make_tuple(r.force_closure_probability, r.epsilon, q.force_closure, q.epsilon, c.quality, c.votes,
-                           -static_cast<long>(i));
+    const GraspQuality& q = robust || enclosure ? chosen[i].evaluation.quality : chosen[i].quality;
+    return std::make_tuple(r.force_closure_probability, r.epsilon, q.force_closure, links_in_contact[i], q.epsilon,
+                           c.quality, c.votes, -static_cast<long>(i));
   };
   std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return final_key(a) > final_key(b); });
   std::vector<RankedGrasp> out;
@@ -500,7 +514,7 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     if (static_cast<int>(out.size()) >= options.top) break;
     out.push_back(std::move(chosen[i]));
   }
-  if (robust) rescore(out);
+  if (robust || enclosure) rescore(out);
   if (timings) {
     timings->robust = robust_seconds;
     timings->fine_tune = seconds_since(t_start) - robust_seconds;

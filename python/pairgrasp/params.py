@@ -78,6 +78,8 @@ class PlanParams:
             probability of force closure, then the lower quartile of epsilon (the pool does not
             shrink with ``top``, so the first grasps do not depend on ``top``). In the physics check
             (docs/physics.md) the epsilon ranking's rank-1 grasp held more often, hence the default.
+            ``"enclosure"``: the same pool of ``max(top, 10)`` grasps ordered by force closure, then
+            the number of hand links in contact, then epsilon (the search's), no further closings.
         robust_samples: perturbations per grasp of the robust ranking.
         top: grasps returned.
         seed: seed of the fine-tuning.
@@ -122,8 +124,8 @@ class PlanParams:
         """Raises ValueError naming the first bad field."""
         if self.schedule not in ("grid", "fast"):
             raise ValueError(f"schedule: expected 'grid' or 'fast', got {self.schedule!r}")
-        if self.rank not in ("robust", "epsilon"):
-            raise ValueError(f"rank: expected 'robust' or 'epsilon', got {self.rank!r}")
+        if self.rank not in ("robust", "epsilon", "enclosure"):
+            raise ValueError(f"rank: expected 'robust', 'epsilon' or 'enclosure', got {self.rank!r}")
         if self.constellation not in ("auto", "per_link", "area"):
             raise ValueError(f"constellation: expected 'auto', 'per_link' or 'area', got {self.constellation!r}")
         for name in ("step", "edge", "d_max", "spacing", "backoff", "depth_tolerance", "time_limit"):

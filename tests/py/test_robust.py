@@ -240,3 +240,32 @@ def test_the_robust_ranking_picks_from_the_epsilon_rankings_best(robust_flask):
     pool = [g.wrist_pose for g in by_eps.grasps]
     for g in robust.grasps:    # the robust top 5 are the 5 most robust of the epsilon ranking's top 10
         assert any(np.array_equal(g.wrist_pose, p) for p in pool)
+
+
+def test_the_enclosure_ranking_orders_the_epsilon_rankings_best_by_links_in_contact(barrett_flask):
+    # rank="enclosure" reorders the pool the epsilon ranking returns with top=10 (the same grasps,
+    # planned the same way) by force closure, then the hand links in contact (counted here from
+    # each grasp's contacts), then epsilon; no robust closings.
+    planner, _ = barrett_flask
+    enc = planner.plan(rank="enclosure", top=10, progress=False)
+    eps = planner.plan(rank="epsilon", top=10, progress=False)
+    assert len(enc.grasps) == len(eps.grasps) == 10
+    key = lambda g: (bytes(np.round(g.wrist_pose, 12)), bytes(np.round(g.dofs, 12)))
+    assert sorted(map(key, enc.grasps)) == sorted(map(key, eps.grasps))
+    same = {key(g): g for g in eps.grasps}
+    for g in enc.grasps:   # every contact scored again: the same epsilon as the epsilon ranking's
+        assert g.epsilon == pytest.approx(same[key(g)].epsilon, rel=1e-12)
+    links = [(g.force_closure, len(set(g.contact_links))) for g in enc.grasps]
+    assert links == sorted(links, reverse=True)
+    assert links[0][1] == max(len(set(g.contact_links)) for g in eps.grasps if g.force_closure)
+    assert enc.timings["robust"] == 0 and all(g.force_closure_probability is None for g in enc.grasps)
+    assert enc.to_dict()["parameters"]["rank"] == "enclosure"
+    # The first grasps do not depend on how many are asked for (the pool is max(top, 10)).
+    three = planner.plan(rank="enclosure", top=3, progress=False)
+    assert [key(g) for g in three.grasps] == [key(g) for g in enc.grasps[:3]]
+
+
+def test_an_unknown_ranking_is_refused_by_name(barrett_flask):
+    planner, _ = barrett_flask
+    with pytest.raises(ValueError, match="rank: expected 'robust', 'epsilon' or 'enclosure'"):
+        planner.plan(rank="hull", progress=False)

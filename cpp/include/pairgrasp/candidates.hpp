@@ -122,11 +122,16 @@ enum class Ranking {
   Robust,
   /// The paper's: force closure, then epsilon from every contact, then alignment quality, then votes.
   Epsilon,
+  /// Enclosure first: of the max(top, robust_pool) best distinct grasps by epsilon, force closure,
+  /// then the number of hand links in contact, then epsilon as the search scored it, then as
+  /// Epsilon. In the physics check (docs/physics.md) its rank-1 grasp held more often than the
+  /// other rankings'.
+  Enclosure,
 };
 
-/// "robust" or "epsilon".
+/// "robust", "epsilon" or "enclosure".
 const char* to_string(Ranking ranking);
-/// The Ranking named "robust" or "epsilon"; std::invalid_argument ("rank: ...") otherwise.
+/// The Ranking of that name; std::invalid_argument ("rank: ...") otherwise.
 Ranking ranking_from_string(const std::string& name);
 
 /// Options of CandidatePipeline::finish().
@@ -141,7 +146,8 @@ struct FinishOptions {
   /// How the returned grasps are ordered. Epsilon by default: in the physics check (docs/physics.md)
   /// the epsilon ranking's rank-1 grasp held more often than the robust ranking's.
   Ranking rank = Ranking::Epsilon;
-  /// Ranking::Robust: the max(top, robust_pool) best distinct grasps by epsilon are scored by
+  /// Ranking::Robust and Ranking::Enclosure: the max(top, robust_pool) best distinct grasps by
+  /// epsilon are ordered (the pool). Robust: they are scored by
   /// robust_quality() (with RobustOptions::samples, translation_sigma, rotation_sigma,
   /// friction_spread and quantile from `robust`; the pipeline's scoring and threads; the seed
   /// seed + 0x9E3779B97F4A7C15 (candidate + 1)) and the `top` most robust returned. The pool does
@@ -151,7 +157,8 @@ struct FinishOptions {
 };
 
 /// The PipelineOptions::hull_rank under which every candidate finish() can pick (fine-tunes, or
-/// scores robustly) has its exact epsilon: max(top, robust_pool when ranking robustly, fine_tune).
+/// scores robustly) has its exact epsilon: max(top, robust_pool when ranking robustly or by
+/// enclosure, fine_tune).
 int hull_rank_for(const FinishOptions& options);
 
 /// Seconds spent in the parts of finish().
