@@ -5,8 +5,9 @@
 
 For each target the Barrett hand is planned with the `fast` schedule three times, ranked by
 robustness (`rank="robust"`), by epsilon (`rank="epsilon"`, the paper's and the default) and by
-enclosure (`rank="enclosure"`: links in contact), and the top 5 of each are simulated (pairgrasp.Simulator: close, lift, turn gravity, shake); `--methods grid` adds the
-`grid` schedule (at `--grid-step`). Targets are the bundled ones (with their paint) and meshes
+enclosure (`rank="enclosure"`: links in contact), and the top 5 of each are simulated
+(pairgrasp.Simulator: close, lift, turn gravity, shake); `--methods grid` adds the `grid` schedule
+(at `--grid-step`). Targets are the bundled ones (with their paint) and meshes
 shipped in the pybullet wheel (pybullet_data, none made for pairgrasp; scaled to 0.1 m along their
 longest side, every face free). The baseline are grasps sampled at random around the target as
 GraspIt's random-approach planners do: a uniformly random approach direction towards the centre of

@@ -449,8 +449,10 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
                    [&](const RankedGrasp& a, const RankedGrasp& b) { return tuned_key(a) > tuned_key(b); });
 
   // Near-duplicates (same wrist position within h, DOFs within half a step) are returned once.
+  // The robust and enclosure rankings order a pool that does not shrink with `top`.
   const bool robust = options.rank == Ranking::Robust, enclosure = options.rank == Ranking::Enclosure;
-  const int pool = robust || enclosure ? std::max(options.top, options.robust_pool) : options.top;
+  const bool pooled = options.rank != Ranking::Epsilon;
+  const int pool = pooled ? std::max(options.top, options.robust_pool) : options.top;
   std::vector<RankedGrasp> chosen;
   std::set<std::vector<std::int64_t>> signatures;
   for (RankedGrasp& g : tuned) {
@@ -489,7 +491,7 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     const auto t_robust = Clock::now();
     score_robust(chosen, options);
     robust_seconds = seconds_since(t_robust);
-  } else if (!enclosure) {
+  } else if (!pooled) {
     rescore(chosen);
   }
   std::vector<int> links_in_contact(chosen.size(), 0);  // distinct hand links touching (enclosure)
@@ -504,7 +506,7 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     const Candidate& c = evaluated_[chosen[i].candidate].candidate;
     const RobustQuality none;
     const RobustQuality& r = chosen[i].robust ? *chosen[i].robust : none;
-    const GraspQuality& q = robust || enclosure ? chosen[i].evaluation.quality : chosen[i].quality;
+    const GraspQuality& q = pooled ? chosen[i].evaluation.quality : chosen[i].quality;
     return std::make_tuple(r.force_closure_probability, r.epsilon, q.force_closure, links_in_contact[i], q.epsilon,
                            c.quality, c.votes, -static_cast<long>(i));
   };
@@ -514,7 +516,7 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     if (static_cast<int>(out.size()) >= options.top) break;
     out.push_back(std::move(chosen[i]));
   }
-  if (robust || enclosure) rescore(out);
+  if (pooled) rescore(out);
   if (timings) {
     timings->robust = robust_seconds;
     timings->fine_tune = seconds_since(t_start) - robust_seconds;
