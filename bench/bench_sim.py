@@ -4,8 +4,8 @@
     python bench/bench_sim.py --targets flask --random 2 --trials 2    # a quick look
 
 For each target the Barrett hand is planned with the `fast` schedule three times, ranked by
-robustness (`rank="robust"`), by epsilon (`rank="epsilon"`, the paper's and the default) and by
-enclosure (`rank="enclosure"`: links in contact), and the top 5 of each are simulated
+robustness (`rank="robust"`), by epsilon (`rank="epsilon"`, the paper's) and by enclosure
+(`rank="enclosure"`, the default: the epsilon ranking's grasps led by the most enclosing), and the top 5 of each are simulated
 (pairgrasp.Simulator: close, lift, turn gravity, shake); `--methods grid` adds the `grid` schedule
 (at `--grid-step`). Targets are the bundled ones (with their paint) and meshes
 shipped in the pybullet wheel (pybullet_data, none made for pairgrasp; scaled to 0.1 m along their
@@ -291,6 +291,8 @@ _RERANK = (("epsilon", 1), ("p_fc", 1), ("robust_epsilon", 1), ("com_offset", -1
 def reranked(results, method="robust") -> str:
     """Top-1 held rate if `method`'s top 5 (already simulated, on the same trials) were re-ranked by
     one feature (ties: the planned order): whether the feature would help as the final criterion."""
+    if not any(method in res["rows"] for res in results):
+        return ""
     out = [f"top-1 held if the {_label(method)}'s top 5 were re-ranked by one feature (same trials):"]
     for f, sign in (("planned order", 0),) + _RERANK:
         held, n = 0, 0

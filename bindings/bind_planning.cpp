@@ -150,6 +150,10 @@ const char* const kPlannerOptionsDoc =
 }  // namespace
 
 void bind_planning(pyb::module_& m) {
+  pyb::tuple rankings(std::size(kRankings));
+  for (std::size_t i = 0; i < std::size(kRankings); ++i) rankings[i] = pyb::str(to_string(kRankings[i]));
+  m.attr("RANKINGS") = rankings;
+  m.attr("DEFAULT_RANK") = to_string(FinishOptions().rank);
   pyb::class_<GraspEvaluation>(m, "GraspEvaluation", "A grasp closed onto contact, checked and scored (evaluate_grasp).")
       .def_property_readonly("wrist_pose", [](const GraspEvaluation& e) { return pose_array(e.wrist); },
                              "(4,4) wrist pose in the target frame.")
@@ -482,8 +486,8 @@ void bind_planning(pyb::module_& m) {
           "seconds), drop near-duplicates, score them with every contact and return (at most `top` RankedGrasp, best "
           "first; {'fine_tune', 'robust'} seconds). rank 'robust': the max(top, robust_pool) best by epsilon are scored "
           "by robust_quality (robust_samples each) and ranked by force-closure probability, then robust epsilon; "
-          "'epsilon': by force closure and epsilon; 'enclosure': the same pool by force closure, then the hand links in "
-          "contact, then epsilon.");
+          "'epsilon': by force closure and epsilon; 'enclosure': rank 1 is the pool's force-closure grasp with the most "
+          "hand links in contact, the others follow as 'epsilon' orders them.");
 
   pyb::class_<PlannerSetup>(m, "PlannerSetup", "Parameters resolved from the hand and the target (resolve_planner).")
       .def_readonly("edge", &PlannerSetup::edge, "Unit-facet edge (m).")

@@ -33,10 +33,9 @@ const char* to_string(Ranking ranking) {
 }
 
 Ranking ranking_from_string(const std::string& name) {
-  if (name == "robust") return Ranking::Robust;
-  if (name == "epsilon") return Ranking::Epsilon;
-  if (name == "enclosure") return Ranking::Enclosure;
-  throw std::invalid_argument("rank: expected 'robust', 'epsilon' or 'enclosure', got '" + name + "'");
+  for (Ranking r : kRankings)
+    if (name == to_string(r)) return r;
+  throw std::invalid_argument("rank: expected 'enclosure', 'epsilon' or 'robust', got '" + name + "'");
 }
 
 namespace {
@@ -469,9 +468,9 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
   }
 
   // The returned grasps are scored again with every contact, their epsilon exact (the whole hull,
-  // or above kFinalHullWrenches the active set). The robust and enclosure rankings order their
-  // pool by their own measures and then by the search's epsilon, so that only the `top` they
-  // return need the scoring; the epsilon ranking orders by the scoring's epsilon.
+  // or above kFinalHullWrenches the active set). The robust ranking orders its pool by its own
+  // measures and the enclosure ranking picks its rank 1 from the search's scores, so that only
+  // the `top` they return need the scoring; the epsilon ranking orders by the scoring's epsilon.
   QualityOptions full = options_.evaluate.quality;
   full.open_volume = true;
   full.volume = true;
@@ -487,36 +486,54 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     });
   };
   double robust_seconds = 0.0;
-  if (robust) {
-    const auto t_robust = Clock::now();
-    score_robust(chosen, options);
-    robust_seconds = seconds_since(t_robust);
-  } else if (!pooled) {
-    rescore(chosen);
-  }
-  std::vector<int> links_in_contact(chosen.size(), 0);  // distinct hand links touching (enclosure)
-  if (enclosure)
-    for (std::size_t i = 0; i < chosen.size(); ++i) {
-      const std::vector<int>& links = chosen[i].evaluation.contacts.links;
-      links_in_contact[i] = static_cast<int>(std::set<int>(links.begin(), links.end()).size());
-    }
-  std::vector<std::size_t> order(chosen.size());
-  std::iota(order.begin(), order.end(), 0);
-  auto final_key = [&](std::size_t i) {
-    const Candidate& c = evaluated_[chosen[i].candidate].candidate;
+  auto order_key = [&](const RankedGrasp& g, long i) {  // the robust and the epsilon rankings
+    const Candidate& c = evaluated_[g.candidate].candidate;
     const RobustQuality none;
-    const RobustQuality& r = chosen[i].robust ? *chosen[i].robust : none;
-    const GraspQuality& q = pooled ? chosen[i].evaluation.quality : chosen[i].quality;
-    return std::make_tuple(r.force_closure_probability, r.epsilon, q.force_closure, links_in_contact[i], q.epsilon,
-                           c.quality, c.votes, -static_cast<long>(i));
+    const RobustQuality& r = g.robust ? *g.robust : none;
+    const GraspQuality& q = robust ? g.evaluation.quality : g.quality;
+    return std::make_tuple(r.force_closure_probability, r.epsilon, q.force_closure, q.epsilon, c.quality, c.votes, -i);
   };
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return final_key(a) > final_key(b); });
   std::vector<RankedGrasp> out;
-  for (std::size_t i : order) {
-    if (static_cast<int>(out.size()) >= options.top) break;
-    out.push_back(std::move(chosen[i]));
+  if (enclosure) {
+    // Rank 1: the pool's force-closure grasp with the most distinct hand links in contact, then the
+    // search's epsilon. The rest: the pool's next best by the search's epsilon, scored with every
+    // contact and ordered as the epsilon ranking orders them.
+    auto lead_key = [&](std::size_t i) {
+      const GraspQuality& q = chosen[i].evaluation.quality;
+      const std::vector<int>& links = chosen[i].evaluation.contacts.links;
+      return std::make_tuple(q.force_closure, std::set<int>(links.begin(), links.end()).size(), q.epsilon,
+                             -static_cast<long>(i));
+    };
+    std::size_t lead = 0;
+    for (std::size_t i = 1; i < chosen.size(); ++i)
+      if (lead_key(i) > lead_key(lead)) lead = i;
+    if (!chosen.empty()) out.push_back(std::move(chosen[lead]));
+    for (std::size_t i = 0; i < chosen.size() && static_cast<int>(out.size()) < options.top; ++i)
+      if (i != lead) out.push_back(std::move(chosen[i]));
+    rescore(out);
+    if (out.size() > 2)
+      std::stable_sort(out.begin() + 1, out.end(), [&](const RankedGrasp& x, const RankedGrasp& y) {
+        return order_key(x, 0) > order_key(y, 0);
+      });
+  } else {
+    if (robust) {
+      const auto t_robust = Clock::now();
+      score_robust(chosen, options);
+      robust_seconds = seconds_since(t_robust);
+    } else {
+      rescore(chosen);
+    }
+    std::vector<std::size_t> order(chosen.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+      return order_key(chosen[x], static_cast<long>(x)) > order_key(chosen[y], static_cast<long>(y));
+    });
+    for (std::size_t i : order) {
+      if (static_cast<int>(out.size()) >= options.top) break;
+      out.push_back(std::move(chosen[i]));
+    }
+    if (robust) rescore(out);
   }
-  if (pooled) rescore(out);
   if (timings) {
     timings->robust = robust_seconds;
     timings->fine_tune = seconds_since(t_start) - robust_seconds;

@@ -3,7 +3,7 @@
 // `pairgrasp simulate` and `pairgrasp view` read.
 //
 //   plan_grasps --hand SPEC --target MESH [--paint FILE] [--step RAD] [--top K] [--seed S]
-//               [--rank epsilon|robust|enclosure] [--threads N] -o FILE
+//               [--rank enclosure|epsilon|robust] [--threads N] -o FILE
 #include <pairgrasp/error.hpp>
 #include <pairgrasp/hand.hpp>
 #include <pairgrasp/mesh.hpp>
@@ -36,7 +36,7 @@ struct Args {
 [[noreturn]] void usage(const std::string& why) {
   std::fprintf(stderr,
                "plan_grasps: %s\nusage: plan_grasps --hand SPEC --target MESH [--paint FILE] [--step RAD] [--top K] "
-               "[--seed S] [--rank epsilon|robust|enclosure] [--threads N] -o FILE\n",
+               "[--seed S] [--rank enclosure|epsilon|robust] [--threads N] -o FILE\n",
                why.c_str());
   std::exit(2);
 }

@@ -17,6 +17,8 @@ import warnings
 
 import numpy as np
 
+from . import _core
+
 
 class _Parser(argparse.ArgumentParser):
     """argparse that reports a bad command line in one line (exit status 2)."""
@@ -372,10 +374,11 @@ def _add_target_options(p, threads_help="worker threads (default 0: every core)"
     p.add_argument("--top", type=_count(1), default=10, help="grasps kept (default 10)")
     p.add_argument("--seed", type=_count(0), default=0, help="seed of the fine-tuning (default 0)")
     p.add_argument("--threads", type=_count(0), default=0, help=threads_help)
-    p.add_argument("--rank", choices=("epsilon", "robust", "enclosure"), default="epsilon",
-                   help="order of the grasps: epsilon (default, the paper's: force closure, then epsilon) or "
-                   "robust (probability of force closure under pose and friction error, then its "
-                   "lower-quartile epsilon) or enclosure (force closure, then hand links in contact, then epsilon)")
+    p.add_argument("--rank", choices=_core.RANKINGS, default=_core.DEFAULT_RANK,
+                   help="order of the grasps: enclosure (default: rank 1 is the force-closure grasp with the "
+                   "most hand links in contact of the ten best by epsilon, the rest follow by epsilon), "
+                   "epsilon (the paper's: force closure, then epsilon) or robust (probability of force "
+                   "closure under pose and friction error, then its lower-quartile epsilon)")
     p.add_argument("--scale", type=_positive_float, default=1.0,
                    help="scale of the target, occluder and obstacle files (0.001: mm to m)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -8,6 +8,8 @@ from typing import Optional, Tuple
 
 import numpy as np
 
+from . import _core
+
 __all__ = ["PlanParams", "with_overrides"]
 
 
@@ -70,16 +72,18 @@ class PlanParams:
             again with every contact. None: every contact throughout (slower by ~10x on the Barrett
             hand, whose links report patches of ~100 contacts).
         mu, edges: friction coefficient and friction-pyramid edges.
-        rank: how the returned grasps are ordered. ``"epsilon"`` (the default): the paper's ranking
-            (force closure, then epsilon). ``"robust"``: the ``max(top, 10)`` best distinct
+        rank: how the returned grasps are ordered. ``"enclosure"`` (the default): of the
+            ``max(top, 10)`` best distinct grasps by epsilon, rank 1 is the force-closure grasp
+            with the most hand links in contact (then the search's epsilon) and the others follow
+            in the epsilon ranking's order; in the physics check (docs/physics.md) its rank-1 grasp
+            held more often than the other rankings', and its top 5 as often as the epsilon
+            ranking's. ``"epsilon"``: the paper's ranking (force closure, then epsilon).
+            ``"robust"``: the ``max(top, 10)`` best distinct
             grasps by epsilon are closed and scored again at ``robust_samples`` perturbations each (wrist
             N(0, 1 mm) per axis and N(0, 1 degree) about a random axis, friction uniform within
             ±20% of ``mu``: :func:`pairgrasp.robust_quality`) and the ``top`` are returned by
             probability of force closure, then the lower quartile of epsilon (the pool does not
-            shrink with ``top``, so the first grasps do not depend on ``top``). In the physics check
-            (docs/physics.md) the epsilon ranking's rank-1 grasp held more often, hence the default.
-            ``"enclosure"``: the same pool of ``max(top, 10)`` grasps ordered by force closure, then
-            the number of hand links in contact, then epsilon (the search's), no further closings.
+            shrink with ``top``, so the first grasps do not depend on ``top``).
         robust_samples: perturbations per grasp of the robust ranking.
         top: grasps returned.
         seed: seed of the fine-tuning.
@@ -114,7 +118,7 @@ class PlanParams:
     contacts_per_link: Optional[int] = 4
     mu: float = 0.5
     edges: int = 8
-    rank: str = "epsilon"
+    rank: str = _core.DEFAULT_RANK
     robust_samples: int = 8
     top: int = 10
     seed: int = 0
@@ -124,8 +128,9 @@ class PlanParams:
         """Raises ValueError naming the first bad field."""
         if self.schedule not in ("grid", "fast"):
             raise ValueError(f"schedule: expected 'grid' or 'fast', got {self.schedule!r}")
-        if self.rank not in ("robust", "epsilon", "enclosure"):
-            raise ValueError(f"rank: expected 'robust', 'epsilon' or 'enclosure', got {self.rank!r}")
+        if self.rank not in _core.RANKINGS:
+            names = ", ".join(repr(r) for r in _core.RANKINGS[:-1]) + f" or {_core.RANKINGS[-1]!r}"
+            raise ValueError(f"rank: expected {names}, got {self.rank!r}")
         if self.constellation not in ("auto", "per_link", "area"):
             raise ValueError(f"constellation: expected 'auto', 'per_link' or 'area', got {self.constellation!r}")
         for name in ("step", "edge", "d_max", "spacing", "backoff", "depth_tolerance", "time_limit"):

@@ -60,8 +60,10 @@ Q_A says how well the hand's shape matched the surface before closing, and the p
 show only a weak relation between the two (Figure 8, ``docs/experiments.md``), so Q_A breaks ties
 and orders grasps that are not force-closure. The highest epsilon is often a grasp on the edge of
 where it works: ``rank="robust"`` orders the final grasps by the probability of force closure
-under pose and friction error, then the lower quartile of epsilon, then as above. Ranking by
-epsilon is the default: in the physics check (docs/physics.md) its rank-1 grasp held more often.
+under pose and friction error, then the lower quartile of epsilon, then as above. The default,
+``rank="enclosure"``, returns the epsilon ranking's grasps but leads with the force-closure grasp
+of the ten best that has the most hand links in contact: in the physics check (docs/physics.md)
+its rank-1 grasp held more often than either ranking's, and its top 5 as often as epsilon's.
 
 Everything is deterministic for a given seed and thread count independent: alignment merges votes
 in a fixed order, candidates are processed in sample order, and the fine-tuning of the grasp of

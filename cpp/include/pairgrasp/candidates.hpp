@@ -122,14 +122,17 @@ enum class Ranking {
   Robust,
   /// The paper's: force closure, then epsilon from every contact, then alignment quality, then votes.
   Epsilon,
-  /// Enclosure first: of the max(top, robust_pool) best distinct grasps by epsilon, force closure,
-  /// then the number of hand links in contact, then epsilon as the search scored it, then as
-  /// Epsilon. In the physics check (docs/physics.md) its rank-1 grasp held more often than the
-  /// other rankings'.
+  /// Rank 1: of the max(top, robust_pool) best distinct grasps by epsilon, the force-closure grasp
+  /// with the most distinct hand links in contact (then epsilon as the search scored it). Ranks 2
+  /// to top: the next best of them by the search's epsilon, ordered as Epsilon. In the physics
+  /// check (docs/physics.md) its rank-1 grasp held more often than the other rankings'.
   Enclosure,
 };
 
-/// "robust", "epsilon" or "enclosure".
+/// Every ranking, in the order of their names.
+inline constexpr Ranking kRankings[] = {Ranking::Enclosure, Ranking::Epsilon, Ranking::Robust};
+
+/// "enclosure", "epsilon" or "robust".
 const char* to_string(Ranking ranking);
 /// The Ranking of that name; std::invalid_argument ("rank: ...") otherwise.
 Ranking ranking_from_string(const std::string& name);
@@ -143,15 +146,17 @@ struct FinishOptions {
   double angle = 0.05235987755982989;  ///< largest fine-tuning rotation (rad), 3 degrees
   /// No fine-tuning trial starts after this time point (an anytime plan); unset: no limit.
   std::optional<std::chrono::steady_clock::time_point> deadline;
-  /// How the returned grasps are ordered. Epsilon by default: in the physics check (docs/physics.md)
-  /// the epsilon ranking's rank-1 grasp held more often than the robust ranking's.
-  Ranking rank = Ranking::Epsilon;
+  /// How the returned grasps are ordered. Enclosure by default: in the physics check
+  /// (docs/physics.md) its rank-1 grasp held more often than the epsilon and the robust rankings',
+  /// and its top 5 as often as the epsilon ranking's.
+  Ranking rank = Ranking::Enclosure;
   /// Ranking::Robust and Ranking::Enclosure: the max(top, robust_pool) best distinct grasps by
-  /// epsilon are ordered (the pool). Robust: they are scored by
+  /// epsilon are the pool the ranking picks from. Robust: they are scored by
   /// robust_quality() (with RobustOptions::samples, translation_sigma, rotation_sigma,
   /// friction_spread and quantile from `robust`; the pipeline's scoring and threads; the seed
   /// seed + 0x9E3779B97F4A7C15 (candidate + 1)) and the `top` most robust returned. The pool does
-  /// not shrink with `top`, so the first grasps do not depend on how many are asked for.
+  /// not shrink with `top`, so the first grasps (Enclosure: rank 1) do not depend on how many are
+  /// asked for.
   RobustOptions robust;
   int robust_pool = 10;
 };
