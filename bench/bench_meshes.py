@@ -150,7 +150,7 @@ def table(args):
             continue
         row.update(plan_seconds=time.perf_counter() - t, force_closure=result.counts["force_closure"],
                    simplified=result.to_dict().get("target_simplified"),
-                   best_epsilon=result.grasps[0].epsilon if result.grasps else None)
+                   best_epsilon=result.best_epsilon if result.grasps else None)
         if result.grasps:
             t = time.perf_counter()
             sim = pg.Simulator(HAND, planner.target, convex_threshold=args.convex_threshold)

@@ -177,7 +177,7 @@ def _done_row(target: str, path: str) -> dict:
 
 def _counts(grasps) -> dict:
     return dict(grasps=len(grasps), force_closure=sum(bool(g.force_closure) for g in grasps),
-                best_epsilon=float(grasps[0].epsilon) if grasps else None)
+                best_epsilon=max(float(g.epsilon) for g in grasps) if grasps else None)
 
 
 def _pack_file(path: str, what: str) -> Tuple[str, bytes]:
