@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <functional>
+#include <iterator>
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
@@ -33,9 +34,13 @@ const char* to_string(Ranking ranking) {
 }
 
 Ranking ranking_from_string(const std::string& name) {
-  for (Ranking r : kRankings)
-    if (name == to_string(r)) return r;
-  throw std::invalid_argument("rank: expected 'enclosure', 'epsilon' or 'robust', got '" + name + "'");
+  std::string names;  // 'a', 'b' or 'c'
+  const std::size_t n = std::size(kRankings);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (name == to_string(kRankings[i])) return kRankings[i];
+    names += (i == 0 ? "'" : (i + 1 == n ? " or '" : ", '")) + std::string(to_string(kRankings[i])) + "'";
+  }
+  throw std::invalid_argument("rank: expected " + names + ", got '" + name + "'");
 }
 
 namespace {

@@ -15,6 +15,7 @@
 #include <string>
 
 #include "test_meshes.hpp"
+#include "../../cpp/src/collision_internal.hpp"
 
 using namespace pairgrasp;
 using Eigen::Vector3d;
@@ -232,6 +233,48 @@ TEST(CollisionField, ClosingAndContactsEqualTheExactPath) {
   }
   std::printf("%d closings, %d contact sets (%d with contacts) compared\n", closings, contact_sets, with_contacts);
   EXPECT_GT(with_contacts, contact_sets / 10);
+}
+
+// The closing's distance through the field (GraspChecker::Impl::link_clearance) against FCL's
+// exact distance on random near-contact poses of the Barrett hand: either the exact value, or,
+// flagged inexact, a lower bound of it beyond the threshold asked about.
+TEST(CollisionField, ClearanceIsExactOrALowerBoundBeyondTheThreshold) {
+  const Hand hand = Hand::load(model("barrett/barrett.json"));
+  int compared = 0, bounds = 0, exact_values = 0;
+  std::uint64_t seed = 300;
+  for (const char* name : {"box", "mug", "flask"}) {
+    SCOPED_TRACE(name);
+    const Mesh target = load_mesh(model(std::string("targets/") + name + ".stl"));
+    const GraspChecker field(hand, target, Mask(), {}, with_field(true));
+    const GraspChecker::Impl& I = field.impl();
+    const Poses p = random_poses(hand, target, 48, seed++, field);
+    for (std::size_t k = 0; k < p.wrists.size(); ++k) {
+      const std::vector<Pose> poses = I.target_frame_poses(p.wrists[k], p.dofs[k]);
+      for (std::size_t l = 0; l < poses.size(); ++l)
+        for (bool active : {false, true}) {
+          if (active && !hand.links()[l].active()) continue;
+          const double truth = I.link_distance(static_cast<int>(l), poses[l], active);
+          for (double above : {0.0005, 0.002, 0.01}) {
+            SCOPED_TRACE("pose " + std::to_string(k) + ", link " + std::to_string(l) + ", above " +
+                         std::to_string(above));
+            bool exact = false;
+            const double d = I.link_clearance(static_cast<int>(l), poses[l], active, above, &exact);
+            ++compared;
+            if (exact) {
+              ++exact_values;
+              EXPECT_EQ(d, truth);
+            } else {
+              ++bounds;
+              EXPECT_GT(d, above);
+              EXPECT_LE(d, truth + 1e-12);
+            }
+          }
+        }
+    }
+  }
+  std::printf("%d clearances: %d exact, %d lower bounds\n", compared, exact_values, bounds);
+  EXPECT_GT(bounds, compared / 4);
+  EXPECT_GT(exact_values, compared / 20);
 }
 
 TEST(CollisionField, ConvexAndNonConvexLinksAndTheFieldSize) {

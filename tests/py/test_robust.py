@@ -276,5 +276,8 @@ def test_the_enclosure_ranking_leads_with_the_most_enclosing_of_the_epsilon_rank
 
 def test_an_unknown_ranking_is_refused_by_name(barrett_flask):
     planner, _ = barrett_flask
-    with pytest.raises(ValueError, match="rank: expected 'enclosure', 'epsilon' or 'robust'"):
+    with pytest.raises(ValueError, match="rank: expected 'enclosure', 'epsilon' or 'robust', got 'hull'"):
         planner.plan(rank="hull", progress=False)
+    # The C++ parser (plan_samples, CandidatePipeline.finish, plan_grasps) names the same three.
+    with pytest.raises(ValueError, match="^rank: expected 'enclosure', 'epsilon' or 'robust', got 'hull'$"):
+        pg._core.hull_rank_for(5, 5, "hull")
