@@ -541,38 +541,60 @@ double suggest_edge(const Mesh& mesh, double d_max, std::size_t max_pairs, const
   return std::max(min_edge, suggest_edge_from(mesh, d_max, max_pairs, free_faces, estimate_pairs(mesh, d_max, free_faces)));
 }
 
-TargetIndex build_target_index(const Mesh& mesh, double edge, const Mask& free_faces,
-                               const PairIndexOptions& options) {
+namespace {
+
+void check_build_arguments(double edge, const PairIndexOptions& options) {
   check_d_max(options.d_max);
   if (options.max_pairs == 0) throw std::invalid_argument("max_pairs: expected at least 1, got 0");
   if (!std::isfinite(edge) || edge < 0.0)
     throw std::invalid_argument("edge: expected a positive facet edge in metres (0: suggested), got " + fmt(edge));
+}
+
+// The refusal of `edge`, naming an edge that fits with a little room (the count at an edge varies
+// by a fraction of a per cent with the tessellation), rounded up.
+BudgetError refusal(const Mesh& mesh, double edge, const Mask& free_faces, const PairIndexOptions& options,
+                    const PairEstimate& est, const std::string& how_many) {
   const std::size_t limit = pair_limit(options.max_pairs);
-  const PairEstimate est = estimate_pairs(mesh, options.d_max, free_faces);
-  if (edge == 0.0) edge = suggest_edge_from(mesh, options.d_max, limit, free_faces, est);
-  // The refusal names an edge that fits with a little room (the count at an edge varies by a
-  // fraction of a per cent with the tessellation), rounded up.
-  auto refusal = [&](const std::string& how_many) {
-    const double fit = suggest_edge_from(mesh, options.d_max, std::max<std::size_t>(1, limit / 50 * 49), free_faces, est);
-    const double unit = std::pow(10.0, std::floor(std::log10(fit)) - 3);  // 4 significant digits
-    std::ostringstream msg;
-    msg << "max_pairs: at a facet edge of " << fmt(edge) << " m the target gives " << how_many
-        << " pairs with d <= d_max = " << fmt(options.d_max) << " m, more than the budget of " << limit
-        << " pairs; a facet edge of " << fmt(std::ceil(fit / unit) * unit, 4)
-        << " m fits (pairs grow as edge^-4), or raise max_pairs";
-    return BudgetError(msg.str());
-  };
-  // Far over the budget (the estimate is good to some per cent): refuse before tessellating, whose
-  // facets alone could exhaust memory at a tiny edge.
+  const double fit = suggest_edge_from(mesh, options.d_max, std::max<std::size_t>(1, limit / 50 * 49), free_faces, est);
+  const double unit = std::pow(10.0, std::floor(std::log10(fit)) - 3);  // 4 significant digits
+  std::ostringstream msg;
+  msg << "max_pairs: at a facet edge of " << fmt(edge) << " m the target gives " << how_many
+      << " pairs with d <= d_max = " << fmt(options.d_max) << " m, more than the budget of " << limit
+      << " pairs; a facet edge of " << fmt(std::ceil(fit / unit) * unit, 4)
+      << " m fits (pairs grow as edge^-4), or raise max_pairs";
+  return BudgetError(msg.str());
+}
+
+// Far over the budget (the estimate is good to some per cent): refused before tessellating, whose
+// facets alone could exhaust memory at a tiny edge.
+void refuse_far_over(const Mesh& mesh, double edge, const Mask& free_faces, const PairIndexOptions& options,
+                     const PairEstimate& est) {
   const double estimated = est.pairs(edge);
-  if (estimated > 1.5 * double(limit)) throw refusal("about " + fmt(estimated, 3));
+  if (estimated > 1.5 * double(pair_limit(options.max_pairs)))
+    throw refusal(mesh, edge, free_faces, options, est, "about " + fmt(estimated, 3));
+}
+
+}  // namespace
+
+void check_pair_estimate(const Mesh& mesh, double edge, const Mask& free_faces, const PairIndexOptions& options) {
+  check_build_arguments(edge, options);
+  if (edge > 0.0) refuse_far_over(mesh, edge, free_faces, options, estimate_pairs(mesh, options.d_max, free_faces));
+}
+
+TargetIndex build_target_index(const Mesh& mesh, double edge, const Mask& free_faces,
+                               const PairIndexOptions& options) {
+  check_build_arguments(edge, options);
+  const PairEstimate est = estimate_pairs(mesh, options.d_max, free_faces);
+  if (edge == 0.0) edge = suggest_edge_from(mesh, options.d_max, pair_limit(options.max_pairs), free_faces, est);
+  refuse_far_over(mesh, edge, free_faces, options, est);
   UnitFacets facets = tessellate(mesh, edge, free_faces);
   try {
     PairIndex index(facets.points, facets.normals, facets.free, options);
     return TargetIndex{std::move(facets), std::move(index)};
   } catch (const PairBudgetExceeded& e) {
-    throw refusal(std::to_string(e.facets) + (free_faces.size() ? " free" : "") + " unit facets and " +
-                  std::to_string(e.pairs));
+    throw refusal(mesh, edge, free_faces, options, est,
+                  std::to_string(e.facets) + (free_faces.size() ? " free" : "") + " unit facets and " +
+                      std::to_string(e.pairs));
   }
 }
 

@@ -227,6 +227,9 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& target, const Mask& fre
   co.depth_tolerance = setup.depth_tolerance;
   co.contact_gap = options.gap;
   co.threads = options.threads;
+  // An edge far over the pair budget is refused before anything is built: the checker's fields are
+  // sized by the same edge (its depth tolerance), and at a tiny edge they alone take minutes.
+  check_pair_estimate(target, setup.edge, free, io);
   // The pair index and the checker's fields are built at once; an error of the index is reported
   // first, whichever finished first.
   std::optional<TargetIndex> index;

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <random>
 #include <regex>
 #include <set>
@@ -455,4 +456,32 @@ TEST(BuildTargetIndex, RefusedEdgeNamesTheEdgeThatFits) {
   const TargetIndex t = build_target_index(m, fit, Mask(), o);
   EXPECT_LE(t.index.size(), o.max_pairs);
   EXPECT_GT(t.index.size(), o.max_pairs / 2);
+}
+
+TEST(BuildTargetIndex, EstimateCheckRefusesWhatTheBuildRefusesBeforeTessellating) {
+  // ~2.5e7 pairs estimated at 2 mm against a budget of 2e5 (far over): the same refusal as the
+  // build's, word for word. At the edge the refusal names, and at edge 0 (suggested), no refusal.
+  const Mesh m = icosphere(0.05, 3);
+  PairIndexOptions o;
+  o.d_max = 0.2;
+  o.max_pairs = 200000;
+  auto message = [](const std::function<void()>& f) {
+    try {
+      f();
+    } catch (const BudgetError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no BudgetError");
+  };
+  const std::string built = message([&] { build_target_index(m, 0.002, Mask(), o); });
+  EXPECT_EQ(message([&] { check_pair_estimate(m, 0.002, Mask(), o); }), built);
+  EXPECT_NE(built.find("gives about"), std::string::npos) << built;  // refused on the estimate
+  std::smatch match;
+  ASSERT_TRUE(std::regex_search(built, match, std::regex("a facet edge of ([0-9.e-]+) m fits"))) << built;
+  EXPECT_NO_THROW(check_pair_estimate(m, std::stod(match[1]), Mask(), o));
+  EXPECT_NO_THROW(check_pair_estimate(m, 0.0, Mask(), o));
+  EXPECT_THROW(check_pair_estimate(m, -0.001, Mask(), o), std::invalid_argument);
+  EXPECT_THROW(check_pair_estimate(m, 0.002, Mask::Constant(3, true), o), std::invalid_argument);
+  o.max_pairs = 0;
+  EXPECT_THROW(check_pair_estimate(m, 0.002, Mask(), o), std::invalid_argument);
 }

@@ -108,6 +108,14 @@ struct TargetIndex {
   PairIndex index;
 };
 
+/// The refusal build_target_index() makes before tessellating, for callers that size other work
+/// by the same edge (the planner builds its checker beside the index): throws build_target_index()'s
+/// BudgetError when the pairs at `edge` (metres) are estimated far over options.max_pairs, and its
+/// std::invalid_argument for the arguments it rejects. Returns normally otherwise, and for edge 0
+/// (suggested); the exact count is left to build_target_index().
+void check_pair_estimate(const Mesh& mesh, double edge, const Mask& free_faces = Mask(),
+                         const PairIndexOptions& options = {});
+
 /// Tessellates `mesh` at `edge` (metres; 0: suggest_edge(mesh, options.d_max, options.max_pairs))
 /// and indexes the pairs of its free facets.
 ///
