@@ -120,13 +120,14 @@ def wilson(k, n, z=1.96):
 
 
 PLANNED = {"robust": ("fast", "robust"), "epsilon": ("fast", "epsilon"), "enclosure": ("fast", "enclosure"),
+           "load": ("fast", "load"),
            "grid": ("grid", "robust")}
-METHODS = ("robust", "epsilon", "enclosure", "verified", "grid", "random", "random-fc")
+METHODS = ("robust", "epsilon", "enclosure", "load", "verified", "grid", "random", "random-fc")
 
 
 def _label(method):
     return {"robust": "planner, robust ranking", "epsilon": "planner, epsilon ranking",
-            "enclosure": "planner, enclosure ranking",
+            "enclosure": "planner, enclosure ranking", "load": "planner, load ranking",
             "verified": "planner, robust top 5 verified", "grid": "planner, grid, robust ranking",
             "random": "random approach",
             "random-fc": "random approach, force-closure only"}[method]

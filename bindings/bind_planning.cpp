@@ -377,7 +377,9 @@ void bind_planning(pyb::module_& m) {
       .def_readonly("robust", &RankedGrasp::robust, "RobustQuality (robust ranking), or None.")
       .def_property_readonly("epsilon", [](const RankedGrasp& g) { return g.quality.epsilon; }, "From every contact.")
       .def_property_readonly("volume", [](const RankedGrasp& g) { return g.quality.volume; })
-      .def_property_readonly("force_closure", [](const RankedGrasp& g) { return g.quality.force_closure; });
+      .def_property_readonly("force_closure", [](const RankedGrasp& g) { return g.quality.force_closure; })
+      .def_readonly("load_resistance", &RankedGrasp::load_resistance,
+                    "Least pure force at the centre of mass along the six load directions, every contact.");
 
   pyb::class_<CandidatePipeline>(
       m, "CandidatePipeline",
@@ -487,7 +489,8 @@ void bind_planning(pyb::module_& m) {
           "first; {'fine_tune', 'robust'} seconds). rank 'robust': the max(top, robust_pool) best by epsilon are scored "
           "by robust_quality (robust_samples each) and ranked by force-closure probability, then robust epsilon; "
           "'epsilon': by force closure and epsilon; 'enclosure': rank 1 is the pool's force-closure grasp with the most "
-          "hand links in contact, the others follow as 'epsilon' orders them.");
+          "hand links in contact, the others follow as 'epsilon' orders them; 'load': as 'enclosure', rank 1 the one with "
+          "the largest load resistance.");
 
   pyb::class_<PlannerSetup>(m, "PlannerSetup", "Parameters resolved from the hand and the target (resolve_planner).")
       .def_readonly("edge", &PlannerSetup::edge, "Unit-facet edge (m).")

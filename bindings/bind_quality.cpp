@@ -105,6 +105,21 @@ void bind_quality(pyb::module_& m) {
       "in C++ with qhull (see pairgrasp.grasp_quality).");
 
   m.def(
+      "_force_resistance",
+      [](const pyb::object& points, const pyb::object& normals, const pyb::object& center, double radius, double mu,
+         int edges, bool soft, std::optional<double> torsion, int soft_rings, const pyb::object& directions) {
+        const Grasp g = grasp_from(points, normals, center);
+        const ContactModel model = model_from(mu, edges, soft, torsion, soft_rings);
+        const Points d = directions.is_none() ? load_directions() : points_from(directions, "directions");
+        pyb::gil_scoped_release release;
+        return Eigen::VectorXd(force_resistance(g.points, g.normals, g.center, radius, d, model));
+      },
+      "points"_a, "normals"_a, "center"_a, "radius"_a, "mu"_a, "edges"_a, "soft"_a, "torsion"_a, "soft_rings"_a,
+      "directions"_a = pyb::none(),
+      "(K,) largest pure force at the torque origin along each unit direction (None: load_directions()) in the "
+      "grasp wrench space (see pairgrasp.force_resistance).");
+
+  m.def(
       "_epsilon_upper_bound",
       [](const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>>& wrenches) {
         const Wrenches w = wrenches;

@@ -29,6 +29,7 @@ const char* to_string(Ranking ranking) {
     case Ranking::Robust: return "robust";
     case Ranking::Epsilon: return "epsilon";
     case Ranking::Enclosure: return "enclosure";
+    case Ranking::Load: return "load";
   }
   return "unknown";
 }
@@ -454,7 +455,8 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
 
   // Near-duplicates (same wrist position within h, DOFs within half a step) are returned once.
   // The robust and enclosure rankings order a pool that does not shrink with `top`.
-  const bool robust = options.rank == Ranking::Robust, enclosure = options.rank == Ranking::Enclosure;
+  const bool robust = options.rank == Ranking::Robust, load = options.rank == Ranking::Load;
+  const bool enclosure = options.rank == Ranking::Enclosure || load;
   const bool pooled = options.rank != Ranking::Epsilon;
   const int pool = pooled ? std::max(options.top, options.robust_pool) : options.top;
   std::vector<RankedGrasp> chosen;
@@ -498,16 +500,27 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     const GraspQuality& q = robust ? g.evaluation.quality : g.quality;
     return std::make_tuple(r.force_closure_probability, r.epsilon, q.force_closure, q.epsilon, c.quality, c.votes, -i);
   };
+  auto load_resistances = [&](std::vector<RankedGrasp>& grasps) {
+    detail::parallel_for(grasps.size(), options_.threads, [&](std::size_t i) {
+      const Contacts& k = grasps[i].evaluation.contacts;
+      grasps[i].load_resistance =
+          k.points.rows() > 0 ? load_resistance(k.points, k.normals, reference_.center, reference_.radius,
+                                                options_.evaluate.quality.contact)
+                              : 0.0;
+    });
+  };
   std::vector<RankedGrasp> out;
   if (enclosure) {
-    // Rank 1: the pool's force-closure grasp with the most distinct hand links in contact, then the
-    // search's epsilon. The rest: the pool's next best by the search's epsilon, scored with every
-    // contact and ordered as the epsilon ranking orders them.
+    // Rank 1: the pool's force-closure grasp with the most distinct hand links in contact (Load: the
+    // largest load resistance), then the search's epsilon. The rest: the pool's next best by the
+    // search's epsilon, scored with every contact and ordered as the epsilon ranking orders them.
+    if (load) load_resistances(chosen);
     auto lead_key = [&](std::size_t i) {
       const GraspQuality& q = chosen[i].evaluation.quality;
       const std::vector<int>& links = chosen[i].evaluation.contacts.links;
-      return std::make_tuple(q.force_closure, std::set<int>(links.begin(), links.end()).size(), q.epsilon,
-                             -static_cast<long>(i));
+      const double measure = load ? chosen[i].load_resistance
+                                  : static_cast<double>(std::set<int>(links.begin(), links.end()).size());
+      return std::make_tuple(q.force_closure, measure, q.epsilon, -static_cast<long>(i));
     };
     std::size_t lead = 0;
     for (std::size_t i = 1; i < chosen.size(); ++i)
@@ -539,6 +552,7 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     }
     if (robust) rescore(out);
   }
+  if (!load) load_resistances(out);
   if (timings) {
     timings->robust = robust_seconds;
     timings->fine_tune = seconds_since(t_start) - robust_seconds;

@@ -114,14 +114,27 @@ struct OriginInHull {
   double inner = 0.0;
 };
 
-OriginInHull locate_origin(const Eigen::Ref<const Matrix>& w, double boundary_tol, int iterations = 200) {
+/// The point of conv(w) nearest to the origin by Wolfe's algorithm: `x`, and the rows `set` with
+/// positive weights `lambda` whose combination it is. `ok` false when a step's system was singular.
+struct MinNormPoint {
+  Eigen::VectorXd x;
+  std::vector<Eigen::Index> set;
+  std::vector<double> lambda;
+  bool ok = true;
+};
+
+MinNormPoint min_norm_point(const Eigen::Ref<const Matrix>& w, int iterations = 200) {
   using Vec = Eigen::VectorXd;
-  const Eigen::Index n = w.rows(), dim = w.cols();
+  const Eigen::Index dim = w.cols();
   Eigen::Index first = 0;
   w.rowwise().squaredNorm().minCoeff(&first);
-  std::vector<Eigen::Index> set{first};
-  std::vector<double> lambda{1.0};
-  Vec x = w.row(first).transpose();
+  MinNormPoint r;
+  std::vector<Eigen::Index>& set = r.set;
+  std::vector<double>& lambda = r.lambda;
+  set.assign(1, first);
+  lambda.assign(1, 1.0);
+  Vec& x = r.x;
+  x = w.row(first).transpose();
   const double scale = w.rowwise().squaredNorm().maxCoeff();
   for (int major = 0; major < iterations; ++major) {
     Eigen::Index j = 0;
@@ -142,7 +155,10 @@ OriginInHull locate_origin(const Eigen::Ref<const Matrix>& w, double boundary_to
       Vec rhs = Vec::Zero(m + 1);
       rhs[m] = 1.0;
       const Vec mu = kkt.fullPivLu().solve(rhs).head(m);
-      if (!mu.allFinite()) return {};
+      if (!mu.allFinite()) {
+        r.ok = false;
+        return r;
+      }
       if ((mu.array() > 0.0).all()) {
         for (Eigen::Index k = 0; k < m; ++k) lambda[k] = mu[k];
         x = p * mu;
@@ -158,13 +174,25 @@ OriginInHull locate_origin(const Eigen::Ref<const Matrix>& w, double boundary_to
         const double l = theta * mu[k] + (1.0 - theta) * lambda[k];
         if (l > 1e-15) kept_set.push_back(set[k]), kept_lambda.push_back(l);
       }
-      if (kept_set.empty()) return {};
+      if (kept_set.empty()) {
+        r.ok = false;
+        return r;
+      }
       set = std::move(kept_set);
       lambda = std::move(kept_lambda);
       x.setZero();
       for (std::size_t k = 0; k < set.size(); ++k) x += lambda[k] * w.row(set[k]).transpose();
     }
   }
+  return r;
+}
+
+OriginInHull locate_origin(const Eigen::Ref<const Matrix>& w, double boundary_tol, int iterations = 200) {
+  const Eigen::Index dim = w.cols();
+  const MinNormPoint mnp = min_norm_point(w, iterations);
+  if (!mnp.ok) return {};
+  const Eigen::VectorXd& x = mnp.x;
+  const std::vector<Eigen::Index>& set = mnp.set;
   OriginInHull out;
   const double xn = x.norm();
   if (xn > 0.0 && (w * x).minCoeff() > boundary_tol * xn) {
@@ -384,6 +412,67 @@ void check_options(const QualityOptions& o) {
 }
 
 }  // namespace
+
+namespace {
+
+/// The largest t with t u in conv(w), for a wrench set whose hull holds the origin strictly and a
+/// unit u (see force_resistance()).
+double ray_exit(const Matrix& w, const Eigen::VectorXd& u, double boundary_tol) {
+  double t = (w * u).maxCoeff();
+  if (!(t > 0.0)) return 0.0;
+  for (int step = 0; step < 100; ++step) {
+    const Matrix shifted = w.rowwise() - t * u.transpose();
+    const MinNormPoint m = min_norm_point(shifted);
+    const double xn = m.x.norm();
+    if (!m.ok || xn <= boundary_tol) return t;  // t u lies in the hull (within rounding)
+    const Eigen::VectorXd a = -m.x / xn;        // outward normal of a plane supporting the hull
+    const double along = a.dot(u);
+    if (!(along > 0.0)) return t;
+    const double next = (w * a).maxCoeff() / along;
+    if (!(next < t - boundary_tol)) return std::min(t, next);
+    t = next;
+  }
+  return t;
+}
+
+}  // namespace
+
+Eigen::VectorXd force_resistance(const Points& points, const Points& normals, const Eigen::Vector3d& center,
+                                 double radius, const Points& directions, const ContactModel& contact) {
+  for (Eigen::Index k = 0; k < directions.rows(); ++k) {
+    const double n = directions.row(k).norm();
+    if (!directions.row(k).allFinite() || std::abs(n - 1.0) > 1e-6)
+      throw std::invalid_argument("directions: row " + std::to_string(k) + " is not a finite unit vector (norm " +
+                                  std::to_string(n) + ")");
+  }
+  QualityOptions qo;
+  qo.contact = contact;
+  qo.volume = false;
+  qo.open_volume = false;
+  qo.min_epsilon = std::numeric_limits<double>::max();  // force closure decided, the hull skipped
+  const GraspQuality q = grasp_quality(points, normals, center, radius, qo);  // validates
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(directions.rows());
+  if (!q.force_closure) return out;
+  const Matrix w = unique_rows(wrench_matrix(points, normals, center, radius, contact));
+  const double boundary_tol = kRtol * w.rowwise().norm().maxCoeff();
+  for (Eigen::Index k = 0; k < directions.rows(); ++k) {
+    Eigen::VectorXd u = Eigen::VectorXd::Zero(6);
+    u.head<3>() = directions.row(k).transpose().normalized();
+    out[k] = std::max(ray_exit(w, u, boundary_tol), q.epsilon);  // q.epsilon: a lower bound of epsilon
+  }
+  return out;
+}
+
+Points load_directions() {
+  Points d(6, 3);
+  d << Eigen::Matrix3d::Identity(), -Eigen::Matrix3d::Identity();
+  return d;
+}
+
+double load_resistance(const Points& points, const Points& normals, const Eigen::Vector3d& center, double radius,
+                       const ContactModel& contact) {
+  return force_resistance(points, normals, center, radius, load_directions(), contact).minCoeff();
+}
 
 double epsilon_upper_bound(const Wrenches& wrenches) {
   if (!wrenches.allFinite()) throw std::invalid_argument("wrenches: non-finite value");

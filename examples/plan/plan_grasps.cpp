@@ -3,7 +3,7 @@
 // `pairgrasp simulate` and `pairgrasp view` read.
 //
 //   plan_grasps --hand SPEC --target MESH [--paint FILE] [--step RAD] [--top K] [--seed S]
-//               [--rank enclosure|epsilon|robust] [--threads N] -o FILE
+//               [--rank enclosure|epsilon|load|robust] [--threads N] -o FILE
 #include <pairgrasp/error.hpp>
 #include <pairgrasp/hand.hpp>
 #include <pairgrasp/mesh.hpp>
@@ -36,7 +36,7 @@ struct Args {
 [[noreturn]] void usage(const std::string& why) {
   std::fprintf(stderr,
                "plan_grasps: %s\nusage: plan_grasps --hand SPEC --target MESH [--paint FILE] [--step RAD] [--top K] "
-               "[--seed S] [--rank enclosure|epsilon|robust] [--threads N] -o FILE\n",
+               "[--seed S] [--rank enclosure|epsilon|load|robust] [--threads N] -o FILE\n",
                why.c_str());
   std::exit(2);
 }
@@ -169,7 +169,8 @@ int main(int argc, char** argv) {
              << ", \"alignment_quality\": " << num(c.candidate.quality) << ", \"votes\": " << c.candidate.votes
              << ", \"penetration_depth\": " << num(e.depth) << ", \"contacts\": " << contacts
              << ", \"sample\": " << list(c.candidate.dofs) << ", \"aligned_pose\": " << matrix(c.candidate.pose)
-             << ", \"backoff\": " << num(c.backoff) << ", \"fine_tuned\": " << (g.fine_tuned ? "true" : "false");
+             << ", \"backoff\": " << num(c.backoff) << ", \"fine_tuned\": " << (g.fine_tuned ? "true" : "false")
+             << ", \"load_resistance\": " << num(g.load_resistance);
       if (g.robust)
         grasps << ", \"force_closure_probability\": " << num(g.robust->force_closure_probability)
                << ", \"robust_epsilon\": " << num(g.robust->epsilon);

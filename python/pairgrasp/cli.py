@@ -101,13 +101,15 @@ def _planner_from_args(args, names=None, **extra):
 def _table(grasps, held=None) -> str:
     """The grasps as printed by plan; ``held``: {planned rank: success rate} of verified grasps."""
     robust = any(g.force_closure_probability is not None for g in grasps)
-    rows = [f"{'rank':>4s}  {'epsilon':>8s}  {'fc':>3s}" + ("  P(fc)  eps_q25" if robust else "") +
+    load = any(g.load_resistance is not None for g in grasps)
+    rows = [f"{'rank':>4s}  {'epsilon':>8s}  {'fc':>3s}" + ("   load" if load else "") + ("  P(fc)  eps_q25" if robust else "") +
             f"  {'Q_A':>8s}  {'votes':>5s}  {'penetration':>11s}  contacts" + ("  held" if held else "")]
     for rank, g in enumerate(grasps, start=1):
         r = (f"  {g.force_closure_probability:5.2f}  {g.robust_epsilon:7.4f}" if g.force_closure_probability is not None
              else "      -        -") if robust else ""
         h = (f"  {held[g.rank]:.2f} (planned {g.rank})" if g.rank in held else "") if held else ""
-        rows.append(f"{rank:>4d}  {g.epsilon:>8.4f}  {'yes' if g.force_closure else 'no':>3s}{r}  "
+        lr = (f"  {g.load_resistance:5.3f}" if g.load_resistance is not None else "      -") if load else ""
+        rows.append(f"{rank:>4d}  {g.epsilon:>8.4f}  {'yes' if g.force_closure else 'no':>3s}{lr}{r}  "
                     f"{g.alignment_quality:>8.3f}  {g.votes:>5d}  {1000 * g.penetration_depth:>8.2f} mm  "
                     f"{len(g.contact_points):>8d}{h}")
     return "\n".join(rows)
@@ -377,7 +379,8 @@ def _add_target_options(p, threads_help="worker threads (default 0: every core)"
     p.add_argument("--rank", choices=_core.RANKINGS, default=_core.DEFAULT_RANK,
                    help="order of the grasps: enclosure (default: rank 1 is the force-closure grasp with the "
                    "most hand links in contact of the ten best by epsilon, the rest follow by epsilon), "
-                   "epsilon (the paper's: force closure, then epsilon) or robust (probability of force "
+                   "epsilon (the paper's: force closure, then epsilon), load (as enclosure, rank 1 the grasp "
+                   "that resists gravity along its worst axis best) or robust (probability of force "
                    "closure under pose and friction error, then its lower-quartile epsilon)")
     p.add_argument("--scale", type=_positive_float, default=1.0,
                    help="scale of the target, occluder and obstacle files (0.001: mm to m)")

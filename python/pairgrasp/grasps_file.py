@@ -155,7 +155,7 @@ def _grasp(d, where, hand) -> Grasp:
     if not isinstance(fine_tuned, bool):
         raise _Bad(f"{where}.fine_tuned: expected true or false")
     robust = {}
-    for key in ("force_closure_probability", "robust_epsilon"):   # the robust ranking's (optional)
+    for key in ("force_closure_probability", "robust_epsilon", "load_resistance"):   # optional
         if d.get(key) is not None:
             robust[key] = _number(d[key], f"{where}.{key}")
             if robust[key] < 0 or (key == "force_closure_probability" and robust[key] > 1):

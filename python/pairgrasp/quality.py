@@ -68,7 +68,8 @@ import numpy as np
 
 from . import _core
 
-__all__ = ["GraspQuality", "grasp_quality", "wrench_matrix", "contact_frames", "epsilon_upper_bound"]
+__all__ = ["GraspQuality", "grasp_quality", "wrench_matrix", "contact_frames", "epsilon_upper_bound",
+           "force_resistance", "load_resistance", "LOAD_DIRECTIONS"]
 
 
 @dataclass(frozen=True)
@@ -266,6 +267,44 @@ def epsilon_upper_bound(points, normals, center, radius, mu=0.5, edges=8, soft=F
     """
     args = _check_inputs(points, normals, center, radius, mu, edges, soft, torsion, soft_rings)
     return float(_core._epsilon_upper_bound(_core.contact_wrenches(**_model(args))))
+
+
+#: The six load directions of the physics check (+x, +y, +z, -x, -y, -z of the target frame), along
+#: which gravity is turned while the hand holds the object (docs/physics.md).
+LOAD_DIRECTIONS = np.vstack([np.eye(3), -np.eye(3)])
+
+
+def force_resistance(points, normals, center, radius, directions=None, mu=0.5, edges=8, soft=False, torsion=None,
+                     soft_rings=0) -> np.ndarray:
+    """The largest pure force at ``center`` along each direction that the grasp's contacts can exert.
+
+    For each unit direction ``d`` (rows of ``directions``, (K, 3), target frame; None:
+    :data:`LOAD_DIRECTIONS`), the largest ``t`` such that the wrench ``(t d, 0)`` lies in the grasp
+    wrench space of :func:`grasp_quality` (the L1 hull of every contact wrench), per unit total
+    normal force. With the centre of mass as ``center`` these are the loads of gravity and of the
+    hand's accelerations; epsilon asks for every wrench, this for the ones such loads make. Each
+    value is at least epsilon; all are 0 when the grasp is not force-closure. Computed in C++
+    without a hull (Wolfe's minimum-norm point, cutting planes along the ray), to about 1e-6
+    relative. Other arguments as :func:`wrench_matrix`.
+
+    Raises:
+        ValueError: malformed input, naming the argument, or a direction that is not a finite unit
+            vector.
+    """
+    args = _check_inputs(points, normals, center, radius, mu, edges, soft, torsion, soft_rings)
+    if directions is not None:
+        directions = np.asarray(directions, dtype=float)
+        if directions.ndim != 2 or directions.shape[1] != 3:
+            raise ValueError(f"directions: expected shape (K, 3), got {directions.shape}")
+    return np.asarray(_core._force_resistance(**_model(args), directions=directions))
+
+
+def load_resistance(points, normals, center, radius, mu=0.5, edges=8, soft=False, torsion=None,
+                    soft_rings=0) -> float:
+    """The least :func:`force_resistance` along the six :data:`LOAD_DIRECTIONS`: the load a grasp
+    resists worst while the object is turned through every orientation. The ``load`` ranking leads
+    with the grasp for which it is largest. 0 when not force-closure."""
+    return float(force_resistance(points, normals, center, radius, None, mu, edges, soft, torsion, soft_rings).min())
 
 
 # ---------------------------------------------------------------------------------------- quality

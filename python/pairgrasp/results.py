@@ -35,6 +35,9 @@ class Grasp:
             (:func:`pairgrasp.robust_quality`): the fraction of perturbed closings that are
             force-closure and the lower quartile of their epsilons; None when the plan ranked by
             epsilon.
+        load_resistance: the least pure force at the centre of mass, per unit total normal force,
+            that the contacts can exert along the six load directions
+            (:func:`pairgrasp.load_resistance`); None in a grasps file written before it was recorded.
     """
 
     rank: int
@@ -56,6 +59,7 @@ class Grasp:
     fine_tuned: bool
     force_closure_probability: Optional[float] = None
     robust_epsilon: Optional[float] = None
+    load_resistance: Optional[float] = None
 
     def to_dict(self) -> dict:
         """JSON-ready dictionary (the grasps.json schema)."""
@@ -80,6 +84,8 @@ class Grasp:
         if self.force_closure_probability is not None:
             d["force_closure_probability"] = _round(self.force_closure_probability)
             d["robust_epsilon"] = _round(self.robust_epsilon)
+        if self.load_resistance is not None:
+            d["load_resistance"] = _round(self.load_resistance)
         return d
 
 

@@ -422,3 +422,99 @@ TEST(Quality, BadInputThrowsNamingTheArgument) {
 }
 
 }  // namespace
+
+/// The largest t with (t d, 0) in conv(w), by enumerating every 6 wrenches as brute_force_hull()
+/// does: each facet {x : u.x = 1} the ray meets (u.(d, 0) > 0) bounds t by 1 / u.(d, 0), and the
+/// least bound is where the ray leaves the hull. Valid only when the origin is strictly inside.
+double brute_force_ray_exit(const pg::Wrenches& w, const Eigen::Vector3d& d) {
+  const int m = static_cast<int>(w.rows());
+  double exit = std::numeric_limits<double>::infinity();
+  std::vector<bool> pick(m, false);
+  std::fill(pick.begin(), pick.begin() + 6, true);
+  do {
+    Eigen::Matrix<double, 6, 6> a;
+    for (int i = 0, k = 0; i < m; ++i)
+      if (pick[i]) a.row(k++) = w.row(i);
+    if (std::abs(a.determinant()) <= 1e-12) continue;
+    const Eigen::Matrix<double, 6, 1> u = a.partialPivLu().solve(Eigen::Matrix<double, 6, 1>::Ones());
+    if ((w * u).maxCoeff() > 1.0 + 1e-9) continue;
+    const double along = u.head<3>().dot(d);
+    if (along > 0.0) exit = std::min(exit, 1.0 / along);
+  } while (std::prev_permutation(pick.begin(), pick.end()));
+  return exit;
+}
+
+TEST(Quality, ForceResistanceMatchesBruteForceFacetEnumeration) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> mu_dist(0.3, 1.2);
+  std::normal_distribution<double> g;
+  int checked = 0, tried = 0;
+  while (checked < 6 && tried < 200) {
+    ++tried;
+    const Contacts c = sphere_grasp(rng, 4 + tried % 2, 0.03, 0.2);
+    const Eigen::Vector3d center(0.004 * g(rng), 0.004 * g(rng), 0.004 * g(rng));
+    const double mu = mu_dist(rng);
+    const pg::GraspQuality q = pg::grasp_quality(c.points, c.normals, center, 0.03, options(mu, 3));
+    if (!q.force_closure) continue;
+    pg::Points dirs(9, 3);
+    dirs.topRows(6) = pg::load_directions();
+    for (int k = 6; k < 9; ++k) dirs.row(k) = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized().transpose();
+    pg::ContactModel model;
+    model.mu = mu;
+    model.edges = 3;
+    const Eigen::VectorXd got = pg::force_resistance(c.points, c.normals, center, 0.03, dirs, model);
+    const pg::Wrenches w = pg::wrench_matrix(c.points, c.normals, center, 0.03, mu, 3);
+    for (int k = 0; k < 9; ++k) {
+      const double want = brute_force_ray_exit(w, dirs.row(k).transpose());
+      EXPECT_NEAR(got[k], want, 1e-6 * want) << tried << " direction " << k;
+      EXPECT_GE(got[k], q.epsilon * (1 - 1e-9));
+    }
+    EXPECT_DOUBLE_EQ(pg::load_resistance(c.points, c.normals, center, 0.03, model), got.head(6).minCoeff());
+    ++checked;
+  }
+  EXPECT_EQ(checked, 6);
+}
+
+TEST(Quality, ForceResistanceOfTheCubeFaceCentresIsOneAlongEveryAxis) {
+  // Six contacts at the face centres of a cube. Along +x only the contact on the -x face pushes with
+  // a force component above mu < 1 (each of its pyramid edges has f_x = 1 per unit normal force),
+  // and the mean of its edges is the pure force (1, 0, 0) with no torque about the centre: t = 1.
+  const double a = 0.02, r = std::sqrt(3.0) * a;
+  pg::Points p(6, 3);
+  for (int i = 0; i < 3; ++i) {
+    p.row(i) = a * Eigen::Vector3d::Unit(i).transpose();
+    p.row(i + 3) = -a * Eigen::Vector3d::Unit(i).transpose();
+  }
+  const pg::Points n = p / a;
+  for (const double mu : {0.2, 0.5, 0.9}) {
+    for (const int edges : {4, 8}) {
+      pg::ContactModel model;
+      model.mu = mu;
+      model.edges = edges;
+      const Eigen::VectorXd t = pg::force_resistance(p, n, Eigen::Vector3d::Zero(), r, pg::load_directions(), model);
+      for (int k = 0; k < 6; ++k) EXPECT_NEAR(t[k], 1.0, 1e-9) << mu << " " << edges << " " << k;
+    }
+  }
+}
+
+TEST(Quality, ForceResistanceIsZeroWithoutForceClosureAndRefusesBadDirections) {
+  pg::Points p(5, 3), n(5, 3);
+  for (int i = 0; i < 5; ++i) {
+    p.row(i) << 0.05, 0.01 * i - 0.02, 0.003 * i * i - 0.01;
+    n.row(i) << 1.0, 0.0, 0.0;
+  }
+  EXPECT_TRUE(pg::force_resistance(p, n, Eigen::Vector3d::Zero(), 0.07, pg::load_directions()).isZero(0.0));
+  EXPECT_EQ(pg::load_resistance(pg::Points(0, 3), pg::Points(0, 3), Eigen::Vector3d::Zero(), 0.07), 0.0);
+  pg::Points bad = pg::load_directions();
+  bad(2, 0) = 0.5;
+  try {
+    pg::force_resistance(p, n, Eigen::Vector3d::Zero(), 0.07, bad);
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("directions: row 2"), std::string::npos) << e.what();
+  }
+  bad(2, 0) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(pg::force_resistance(p, n, Eigen::Vector3d::Zero(), 0.07, bad), std::invalid_argument);
+  EXPECT_THROW(pg::force_resistance(p, n.topRows(4), Eigen::Vector3d::Zero(), 0.07, pg::load_directions()),
+               std::invalid_argument);
+}

@@ -168,6 +168,32 @@ def epsilon(points, normals, center, radius, mu=0.5, edges=8) -> float:
     return float(d.min()) if d.min() > 0 else 0.0
 
 
+def force_resistance(points, normals, center, radius, directions, mu=0.5, edges=8) -> np.ndarray:
+    """For each unit force direction d, the largest t with (t d, 0) in the wrench hull, from SciPy's
+    hull facets: the least 1 / (a.(d, 0) / -b) over the facets the ray meets. All 0 when the origin
+    is not strictly inside."""
+    w = reference_wrenches(points, normals, center, radius, mu, edges)
+    d = np.asarray(directions, float).reshape(-1, 3)
+    if epsilon(points, normals, center, radius, mu, edges) == 0.0:
+        return np.zeros(len(d))
+    try:
+        hull = ConvexHull(w)
+    except QhullError:
+        hull = ConvexHull(w, qhull_options="QJ")
+    a, off = hull.equations[:, :3], -hull.equations[:, -1]
+    out = []
+    for u in d:
+        along = a @ u
+        hit = along > 1e-12
+        out.append(float(np.min(off[hit] / along[hit])))
+    return np.array(out)
+
+
+def load_resistance(points, normals, center, radius, mu=0.5, edges=8) -> float:
+    """The least force_resistance() along +-x, +-y, +-z."""
+    return float(force_resistance(points, normals, center, radius, np.vstack([np.eye(3), -np.eye(3)]), mu, edges).min())
+
+
 def torque_reference(mesh: trimesh.Trimesh):
     """(centre of mass, largest vertex distance from it): the torque origin and scale."""
     c = np.asarray(mesh.center_mass, float)

@@ -71,7 +71,7 @@ def test_the_cpp_program_writes_the_python_planners_grasps(grid_plan, tmp_path):
     for d, g in zip(doc["grasps"], result.grasps):
         want = g.to_dict()
         for key in ("wrist_pose", "dof", "epsilon", "volume", "alignment_quality", "penetration_depth", "sample",
-                    "aligned_pose", "backoff", "force_closure_probability", "robust_epsilon"):
+                    "aligned_pose", "backoff", "force_closure_probability", "robust_epsilon", "load_resistance"):
             np.testing.assert_allclose(d[key], want[key], rtol=0, atol=1e-9, err_msg=key)
         assert (d["force_closure"], d["votes"], d["fine_tuned"]) == (want["force_closure"], want["votes"],
                                                                     want["fine_tuned"])

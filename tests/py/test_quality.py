@@ -18,6 +18,7 @@ from scipy.optimize import linprog, minimize
 from scipy.spatial import ConvexHull
 
 import pairgrasp as pg
+import independent
 from independent import reference_wrenches, tangent_basis
 
 ORIGIN = np.zeros(3)
@@ -491,6 +492,39 @@ def test_without_open_volume_only_non_closure_changes(seed):
 
 
 # ------------------------------------------------------------------------------- API and errors
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_force_resistance_matches_the_scipy_hull(seed):
+    # The ray from the origin along a pure force leaves SciPy's hull of independently built wrenches
+    # (tests/py/independent.py) where pairgrasp's hull-free computation says, along the six load
+    # directions and random ones; never below epsilon, and 0 without force closure.
+    rng = np.random.default_rng(seed)
+    checked = 0
+    for trial in range(40):
+        P, N, r = (*sphere_grasp(rng, 4 + trial % 6, scatter=0.3), 0.03) if trial % 2 else box_grasp(rng, 5 + trial % 5)
+        center = 0.003 * rng.normal(size=3)
+        dirs = np.vstack([pg.LOAD_DIRECTIONS, rng.normal(size=(4, 3))])
+        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+        got = pg.force_resistance(P, N, center, r, dirs)
+        want = independent.force_resistance(P, N, center, r, dirs)
+        np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-12)
+        assert pg.load_resistance(P, N, center, r) == pytest.approx(independent.load_resistance(P, N, center, r),
+                                                                   rel=1e-6, abs=1e-12)
+        q = pg.grasp_quality(P, N, center, r)
+        assert (got >= q.epsilon * (1 - 1e-9)).all()
+        checked += bool(q.force_closure)
+    assert checked >= 10
+
+
+def test_force_resistance_refuses_bad_directions():
+    P, N, _ = box_grasp(np.random.default_rng(4), 6)
+    with pytest.raises(ValueError, match="directions"):
+        pg.force_resistance(P, N, ORIGIN, 0.05, [[1.0, 0.0]])
+    with pytest.raises(ValueError, match="directions: row 1"):
+        pg.force_resistance(P, N, ORIGIN, 0.05, [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0]])
+    with pytest.raises(ValueError, match="directions: row 0"):
+        pg.force_resistance(P, N, ORIGIN, 0.05, [[np.nan, 0.0, 0.0]])
+
 
 def test_result_reads_as_object_mapping_and_sequence():
     P = np.array([[0.05, 0.02, 0.01], [-0.05, 0.02, 0.01], [0.05, -0.02, -0.01], [-0.05, -0.02, -0.01]])

@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+import independent
 import pairgrasp as pg
 
 from conftest import TARGETS
@@ -172,6 +173,14 @@ def _doc(**extra):
     return {"format": pg.GRASPS_FORMAT, "grasps": [g]}
 
 
+def test_grasps_file_load_resistance_is_optional_and_checked():
+    assert pg.parse_grasps(_doc()).grasps[0].load_resistance is None
+    g = pg.parse_grasps(_doc(load_resistance=0.42)).grasps[0]
+    assert g.load_resistance == 0.42 and g.to_dict()["load_resistance"] == 0.42
+    with pytest.raises(pg.FileError, match="grasps\\[0\\]\\.load_resistance"):
+        pg.parse_grasps(_doc(load_resistance=-0.1))
+
+
 def test_grasps_file_robust_fields_are_optional_and_checked():
     old = pg.parse_grasps(_doc()).grasps[0]
     assert old.force_closure_probability is None and old.robust_epsilon is None
@@ -246,15 +255,27 @@ def test_the_robust_ranking_picks_from_the_epsilon_rankings_best(robust_flask):
         assert any(np.array_equal(g.wrist_pose, p) for p in pool)
 
 
-def test_the_enclosure_ranking_leads_with_the_most_enclosing_of_the_epsilon_rankings_best(barrett_flask):
+@pytest.fixture(scope="module")
+def epsilon_ten(barrett_flask):
+    """The epsilon ranking's ten best of the flask plan: the pool the enclosure and load rankings
+    pick their rank 1 from."""
+    planner, _ = barrett_flask
+    return planner.plan(rank="epsilon", top=10, progress=False)
+
+
+def _pose_key(g):
+    return bytes(np.round(g.wrist_pose, 12)), bytes(np.round(g.dofs, 12))
+
+
+def test_the_enclosure_ranking_leads_with_the_most_enclosing_of_the_epsilon_rankings_best(barrett_flask, epsilon_ten):
     # rank="enclosure" picks its rank 1 from the grasps the epsilon ranking returns with top=10
     # (planned the same way): the force-closure grasp with the most hand links in contact (counted
     # here from each grasp's contacts). The others follow in the epsilon ranking's order.
     planner, _ = barrett_flask
     enc = planner.plan(rank="enclosure", top=10, progress=False)
-    eps = planner.plan(rank="epsilon", top=10, progress=False)
+    eps = epsilon_ten
     assert len(enc.grasps) == len(eps.grasps) == 10
-    key = lambda g: (bytes(np.round(g.wrist_pose, 12)), bytes(np.round(g.dofs, 12)))
+    key = _pose_key
     same = {key(g): g for g in eps.grasps}
     for g in enc.grasps:   # every contact scored again: the same epsilon as the epsilon ranking's
         assert g.epsilon == pytest.approx(same[key(g)].epsilon, rel=1e-12)
@@ -274,10 +295,33 @@ def test_the_enclosure_ranking_leads_with_the_most_enclosing_of_the_epsilon_rank
     assert rest == sorted(rest, reverse=True)
 
 
+def test_the_load_ranking_leads_with_the_grasp_that_resists_gravity_best(barrett_flask, epsilon_ten):
+    # rank="load" picks its rank 1 from the same pool: the force-closure grasp whose contacts resist a
+    # pure force at the centre of mass best along their worst of +-x, +-y, +-z, measured here with
+    # SciPy's hull of independently built wrenches (tests/py/independent.py). Every returned grasp
+    # records that value; the others follow in the epsilon ranking's order.
+    planner, _ = barrett_flask
+    load = planner.plan(rank="load", top=10, progress=False)
+    eps = epsilon_ten
+    centre, radius = independent.torque_reference(independent.to_trimesh(planner.target))
+    resist = lambda g: independent.load_resistance(g.contact_points, g.contact_normals, centre, radius)
+    for g in load.grasps + eps.grasps:
+        assert g.load_resistance == pytest.approx(resist(g), rel=1e-6, abs=1e-12)
+        if g.force_closure:
+            assert g.load_resistance >= g.epsilon * (1 - 1e-9)
+    lead = load.grasps[0]
+    assert lead.force_closure and resist(lead) == pytest.approx(max(resist(g) for g in eps.grasps if g.force_closure),
+                                                                rel=1e-6)
+    assert [_pose_key(g) for g in load.grasps[1:]] == [_pose_key(g) for g in eps.grasps if _pose_key(g) != _pose_key(lead)]
+    doc = load.to_dict()
+    assert doc["parameters"]["rank"] == "load" and all("load_resistance" in g for g in doc["grasps"])
+    assert load.timings["robust"] == 0
+
+
 def test_an_unknown_ranking_is_refused_by_name(barrett_flask):
     planner, _ = barrett_flask
-    with pytest.raises(ValueError, match="rank: expected 'enclosure', 'epsilon' or 'robust', got 'hull'"):
+    with pytest.raises(ValueError, match="rank: expected 'enclosure', 'epsilon', 'load' or 'robust', got 'hull'"):
         planner.plan(rank="hull", progress=False)
-    # The C++ parser (plan_samples, CandidatePipeline.finish, plan_grasps) names the same three.
-    with pytest.raises(ValueError, match="^rank: expected 'enclosure', 'epsilon' or 'robust', got 'hull'$"):
+    # The C++ parser (plan_samples, CandidatePipeline.finish, plan_grasps) names the same four.
+    with pytest.raises(ValueError, match="^rank: expected 'enclosure', 'epsilon', 'load' or 'robust', got 'hull'$"):
         pg._core.hull_rank_for(5, 5, "hull")

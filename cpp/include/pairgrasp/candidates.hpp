@@ -111,6 +111,9 @@ struct RankedGrasp {
   bool fine_tuned = false;       ///< a fine-tuning trial strictly better than the candidate
   /// Quality from every contact (the evaluation's may come from reduced contacts).
   GraspQuality quality;
+  /// load_resistance() of every contact (quality.hpp): the least pure force at the centre of mass
+  /// along the six load directions, per unit total normal force; 0 when not force-closure.
+  double load_resistance = 0.0;
   /// Force closure and epsilon under perturbations (Ranking::Robust only).
   std::optional<RobustQuality> robust;
 };
@@ -127,12 +130,16 @@ enum class Ranking {
   /// to top: the next best of them by the search's epsilon, ordered as Epsilon. In the physics
   /// check (docs/physics.md) its rank-1 grasp held more often than the other rankings'.
   Enclosure,
+  /// Rank 1: of the same pool, the force-closure grasp with the largest load_resistance() from every
+  /// contact (then epsilon as the search scored it): the grasp that resists worst-placed gravity
+  /// best. Ranks 2 to top as Enclosure.
+  Load,
 };
 
 /// Every ranking, in the order of their names.
-inline constexpr Ranking kRankings[] = {Ranking::Enclosure, Ranking::Epsilon, Ranking::Robust};
+inline constexpr Ranking kRankings[] = {Ranking::Enclosure, Ranking::Epsilon, Ranking::Load, Ranking::Robust};
 
-/// "enclosure", "epsilon" or "robust".
+/// "enclosure", "epsilon", "load" or "robust".
 const char* to_string(Ranking ranking);
 /// The Ranking of that name; std::invalid_argument ("rank: ...") otherwise.
 Ranking ranking_from_string(const std::string& name);

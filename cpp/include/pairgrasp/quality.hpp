@@ -102,6 +102,33 @@ struct GraspQuality {
 GraspQuality grasp_quality(const Points& points, const Points& normals, const Eigen::Vector3d& center,
                            double radius, const QualityOptions& options = {});
 
+/// Force resistance of a grasp: for each unit direction d (the rows of `directions`, (K,3), target
+/// frame), the largest t such that the wrench (t d, 0), a pure force at the torque origin `center`,
+/// lies in the grasp wrench space of grasp_quality() (the L1 hull of every contact wrench): the
+/// largest force along d at that point, per unit total normal force, that the contacts can exert
+/// without a torque about it. With the centre of mass as the origin these are the loads of gravity
+/// and of the hand's accelerations (the physics check's loads); epsilon asks for every wrench.
+/// Each value is at least epsilon (the epsilon-ball lies in the hull) and at most the largest force
+/// component of a contact wrench along d. All 0 when the grasp is not force-closure.
+///
+/// Computed without a hull: from t = max_w w.(d,0), Wolfe's minimum-norm point of the wrenches
+/// less (t d, 0) is either 0 within rounding (t is the answer) or gives a supporting plane a of
+/// the hull beyond (t d, 0), and t becomes max_w a.w / a.(d,0), which decreases strictly to the
+/// answer (it ends after a few steps where the ray leaves the hull through a facet's interior).
+/// Relative accuracy about 1e-6. Arguments as grasp_quality() (the contact model's friction,
+/// edges and soft contacts); throws std::invalid_argument naming a malformed argument, or a
+/// direction that is not a finite unit vector.
+Eigen::VectorXd force_resistance(const Points& points, const Points& normals, const Eigen::Vector3d& center,
+                                 double radius, const Points& directions, const ContactModel& contact = {});
+
+/// The six load directions of the physics check (docs/physics.md): +x, +y, +z, -x, -y, -z of the
+/// target frame, along which gravity is turned while the hand holds the object.
+Points load_directions();
+
+/// Load resistance: the least force_resistance() along load_directions(); 0 when not force-closure.
+double load_resistance(const Points& points, const Points& normals, const Eigen::Vector3d& center, double radius,
+                       const ContactModel& contact = {});
+
 /// An upper bound of the Ferrari-Canny epsilon of the wrench set `wrenches`, without a hull: for
 /// any unit direction v a ball of radius epsilon inside the hull stays in {x : v.x <= max_w v.w},
 /// so epsilon <= min_v max_w v.w over the 12 directions +-e_k of the axes and the 12 directions
