@@ -38,14 +38,18 @@ Contacts sphere_grasp(std::mt19937& rng, int m, double r, double scatter) {
   return c;
 }
 
-/// (epsilon, volume) of conv(w) by enumerating every 6 wrenches: a hyperplane {x : u.x = 1}
-/// through 6 of them with every other wrench on the origin's side is a facet at distance 1/|u|;
-/// for simplicial facets the hull is the union of the cones from the origin over them. Valid only
-/// when the origin is strictly inside.
-std::pair<double, double> brute_force_hull(const pg::Wrenches& w) {
+/// The facets of conv(w) by enumerating every 6 wrenches: a hyperplane {x : u.x = 1} through 6 of
+/// them with every other wrench on the origin's side is a facet at distance 1/|u|; `det` is the
+/// determinant of its 6 wrenches (for simplicial facets the hull is the union of the cones from the
+/// origin over them). Valid only when the origin is strictly inside.
+struct BruteFacet {
+  Eigen::Matrix<double, 6, 1> u;
+  double det;
+};
+
+std::vector<BruteFacet> brute_force_facets(const pg::Wrenches& w) {
   const int m = static_cast<int>(w.rows());
-  double max_u = 0.0, volume = 0.0;
-  std::vector<int> idx(6);
+  std::vector<BruteFacet> facets;
   std::vector<bool> pick(m, false);
   std::fill(pick.begin(), pick.begin() + 6, true);
   do {
@@ -56,10 +60,30 @@ std::pair<double, double> brute_force_hull(const pg::Wrenches& w) {
     if (std::abs(det) <= 1e-12) continue;
     const Eigen::Matrix<double, 6, 1> u = a.partialPivLu().solve(Eigen::Matrix<double, 6, 1>::Ones());
     if ((w * u).maxCoeff() > 1.0 + 1e-9) continue;
-    max_u = std::max(max_u, u.norm());
-    volume += std::abs(det) / 720.0;
+    facets.push_back({u, det});
   } while (std::prev_permutation(pick.begin(), pick.end()));
+  return facets;
+}
+
+/// (epsilon, volume) of conv(w) from brute_force_facets().
+std::pair<double, double> brute_force_hull(const pg::Wrenches& w) {
+  double max_u = 0.0, volume = 0.0;
+  for (const BruteFacet& f : brute_force_facets(w)) {
+    max_u = std::max(max_u, f.u.norm());
+    volume += std::abs(f.det) / 720.0;
+  }
   return {1.0 / max_u, volume};
+}
+
+/// The largest t with (t d, 0) in conv(w) from brute_force_facets(): each facet the ray meets
+/// (u.(d, 0) > 0) bounds t by 1 / u.(d, 0), and the least bound is where the ray leaves the hull.
+double brute_force_ray_exit(const pg::Wrenches& w, const Eigen::Vector3d& d) {
+  double exit = std::numeric_limits<double>::infinity();
+  for (const BruteFacet& f : brute_force_facets(w)) {
+    const double along = f.u.head<3>().dot(d);
+    if (along > 0.0) exit = std::min(exit, 1.0 / along);
+  }
+  return exit;
 }
 
 pg::QualityOptions options(double mu, int edges, int max_hull_wrenches = 320) {
@@ -422,27 +446,6 @@ TEST(Quality, BadInputThrowsNamingTheArgument) {
 }
 
 }  // namespace
-
-/// The largest t with (t d, 0) in conv(w), by enumerating every 6 wrenches as brute_force_hull()
-/// does: each facet {x : u.x = 1} the ray meets (u.(d, 0) > 0) bounds t by 1 / u.(d, 0), and the
-/// least bound is where the ray leaves the hull. Valid only when the origin is strictly inside.
-double brute_force_ray_exit(const pg::Wrenches& w, const Eigen::Vector3d& d) {
-  const int m = static_cast<int>(w.rows());
-  double exit = std::numeric_limits<double>::infinity();
-  std::vector<bool> pick(m, false);
-  std::fill(pick.begin(), pick.begin() + 6, true);
-  do {
-    Eigen::Matrix<double, 6, 6> a;
-    for (int i = 0, k = 0; i < m; ++i)
-      if (pick[i]) a.row(k++) = w.row(i);
-    if (std::abs(a.determinant()) <= 1e-12) continue;
-    const Eigen::Matrix<double, 6, 1> u = a.partialPivLu().solve(Eigen::Matrix<double, 6, 1>::Ones());
-    if ((w * u).maxCoeff() > 1.0 + 1e-9) continue;
-    const double along = u.head<3>().dot(d);
-    if (along > 0.0) exit = std::min(exit, 1.0 / along);
-  } while (std::prev_permutation(pick.begin(), pick.end()));
-  return exit;
-}
 
 TEST(Quality, ForceResistanceMatchesBruteForceFacetEnumeration) {
   std::mt19937 rng(5);
