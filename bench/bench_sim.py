@@ -3,9 +3,10 @@
     python bench/bench_sim.py --jobs 2 --json sim.json     # bundled targets and 4 pybullet_data meshes
     python bench/bench_sim.py --targets flask --random 2 --trials 2    # a quick look
 
-For each target the Barrett hand is planned with the `fast` schedule three times, ranked by
-robustness (`rank="robust"`), by epsilon (`rank="epsilon"`, the paper's) and by enclosure
-(`rank="enclosure"`, the default: the epsilon ranking's grasps led by the most enclosing), and the top 5 of each are simulated
+For each target the Barrett hand is planned with the `fast` schedule once per ranking: by
+robustness (`rank="robust"`), by epsilon (`rank="epsilon"`, the paper's), by enclosure
+(`rank="enclosure"`: the epsilon ranking's grasps led by the most enclosing) and by load
+(`rank="load"`, the default: led by the one that resists gravity best along its worst axis), and the top 5 of each are simulated
 (pairgrasp.Simulator: close, lift, turn gravity, shake); `--methods grid` adds the `grid` schedule
 (at `--grid-step`). Targets are the bundled ones (with their paint) and meshes
 shipped in the pybullet wheel (pybullet_data, none made for pairgrasp; scaled to 0.1 m along their
@@ -330,7 +331,7 @@ def main(argv=None) -> int:
     ap.add_argument("--random", type=int, default=5, help="random-approach grasps per target")
     ap.add_argument("--trials", type=int, default=4, help="trials per grasp (the first as planned)")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--methods", nargs="+", choices=METHODS, default=["robust", "epsilon", "enclosure", "random"],
+    ap.add_argument("--methods", nargs="+", choices=METHODS, default=["robust", "epsilon", "enclosure", "load", "random"],
                     help="rankings, schedules and baselines to run")
     ap.add_argument("--jobs", type=int, default=1, help="targets run at once (processes)")
     ap.add_argument("--no-paint", action="store_true", help="plan with every face free")

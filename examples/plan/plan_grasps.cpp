@@ -134,18 +134,18 @@ int main(int argc, char** argv) {
     std::printf("%s on %s: %zu samples, %ld candidates evaluated, %ld force-closure; edge %.4g m, d_max %.4g m\n",
                 hand.name().c_str(), args.target.c_str(), samples.size(), report.counts.at("evaluated"),
                 report.counts.at("force_closure"), s.edge, s.d_max);
-    std::printf("rank  epsilon  P(fc)  eps_q25   volume     Q_A      votes  contacts  dofs\n");
+    std::printf("rank  epsilon   load  P(fc)  eps_q25   volume     Q_A      votes  contacts  dofs\n");
     std::ostringstream grasps;
     int rank = 0;
     for (const pg::RankedGrasp& g : report.grasps) {
       const pg::EvaluatedCandidate& c = report.candidates[g.candidate];
       const pg::GraspEvaluation& e = g.evaluation;
       ++rank;
+      std::printf("%4d  %.5f  %5.3f  ", rank, g.quality.epsilon, g.load_resistance);
       if (g.robust)
-        std::printf("%4d  %.5f  %5.2f  %.5f  ", rank, g.quality.epsilon, g.robust->force_closure_probability,
-                    g.robust->epsilon);
+        std::printf("%5.2f  %.5f  ", g.robust->force_closure_probability, g.robust->epsilon);
       else
-        std::printf("%4d  %.5f      -        -  ", rank, g.quality.epsilon);
+        std::printf("    -        -  ");
       std::printf("%.3e  %7.2f  %5d  %8ld  [", g.quality.volume,
                   c.candidate.quality, c.candidate.votes, static_cast<long>(e.contacts.points.rows()));
       for (Eigen::Index d = 0; d < e.dofs.size(); ++d) std::printf("%s%.4f", d ? " " : "", e.dofs[d]);

@@ -377,10 +377,10 @@ def _add_target_options(p, threads_help="worker threads (default 0: every core)"
     p.add_argument("--seed", type=_count(0), default=0, help="seed of the fine-tuning (default 0)")
     p.add_argument("--threads", type=_count(0), default=0, help=threads_help)
     p.add_argument("--rank", choices=_core.RANKINGS, default=_core.DEFAULT_RANK,
-                   help="order of the grasps: enclosure (default: rank 1 is the force-closure grasp with the "
-                   "most hand links in contact of the ten best by epsilon, the rest follow by epsilon), "
-                   "epsilon (the paper's: force closure, then epsilon), load (as enclosure, rank 1 the grasp "
-                   "that resists gravity along its worst axis best) or robust (probability of force "
+                   help="order of the grasps: load (default: rank 1 is the force-closure grasp of the ten "
+                   "best by epsilon that resists gravity along its worst axis best, the rest follow by "
+                   "epsilon), enclosure (as load, rank 1 the one with the most hand links in contact), "
+                   "epsilon (the paper's: force closure, then epsilon) or robust (probability of force "
                    "closure under pose and friction error, then its lower-quartile epsilon)")
     p.add_argument("--scale", type=_positive_float, default=1.0,
                    help="scale of the target, occluder and obstacle files (0.001: mm to m)")

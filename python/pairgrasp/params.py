@@ -72,12 +72,14 @@ class PlanParams:
             again with every contact. None: every contact throughout (slower by ~10x on the Barrett
             hand, whose links report patches of ~100 contacts).
         mu, edges: friction coefficient and friction-pyramid edges.
-        rank: how the returned grasps are ordered. ``"enclosure"`` (the default): of the
+        rank: how the returned grasps are ordered. ``"load"`` (the default): of the
             ``max(top, 10)`` best distinct grasps by epsilon, rank 1 is the force-closure grasp
-            with the most hand links in contact (then the search's epsilon) and the others follow
-            in the epsilon ranking's order; in the physics check (docs/physics.md) its rank-1 grasp
-            held more often than the other rankings', and its top 5 as often as the epsilon
-            ranking's. ``"epsilon"``: the paper's ranking (force closure, then epsilon).
+            whose contacts resist a pure force at the centre of mass best along their worst of
+            +-x, +-y, +-z (:func:`pairgrasp.load_resistance`, then the search's epsilon) and the
+            others follow in the epsilon ranking's order; in the physics check (docs/physics.md)
+            its rank-1 grasp held more often than the other rankings'. ``"enclosure"``: the same
+            pool led by the force-closure grasp with the most hand links in contact.
+            ``"epsilon"``: the paper's ranking (force closure, then epsilon).
             ``"robust"``: the ``max(top, 10)`` best distinct
             grasps by epsilon are closed and scored again at ``robust_samples`` perturbations each (wrist
             N(0, 1 mm) per axis and N(0, 1 degree) about a random axis, friction uniform within

@@ -61,9 +61,11 @@ show only a weak relation between the two (Figure 8, ``docs/experiments.md``), s
 and orders grasps that are not force-closure. The highest epsilon is often a grasp on the edge of
 where it works: ``rank="robust"`` orders the final grasps by the probability of force closure
 under pose and friction error, then the lower quartile of epsilon, then as above. The default,
-``rank="enclosure"``, returns the epsilon ranking's grasps but leads with the force-closure grasp
-of the ten best that has the most hand links in contact: in the physics check (docs/physics.md)
-its rank-1 grasp held more often than either ranking's, and its top 5 as often as epsilon's.
+``rank="load"``, returns the epsilon ranking's grasps but leads with the force-closure grasp of
+the ten best that resists gravity best along its worst axis (:func:`pairgrasp.load_resistance`:
+the largest pure force at the centre of mass along +-x, +-y, +-z that its contacts can exert);
+``rank="enclosure"`` leads with the one with the most hand links in contact. In the physics check
+(docs/physics.md) the load ranking's rank-1 grasp held more often than any other ranking's.
 
 Everything is deterministic for a given seed and thread count independent: alignment merges votes
 in a fixed order, candidates are processed in sample order, and the fine-tuning of the grasp of

@@ -153,10 +153,10 @@ struct FinishOptions {
   double angle = 0.05235987755982989;  ///< largest fine-tuning rotation (rad), 3 degrees
   /// No fine-tuning trial starts after this time point (an anytime plan); unset: no limit.
   std::optional<std::chrono::steady_clock::time_point> deadline;
-  /// How the returned grasps are ordered. Enclosure by default: in the physics check
-  /// (docs/physics.md) its rank-1 grasp held more often than the epsilon and the robust rankings',
-  /// and its top 5 as often as the epsilon ranking's.
-  Ranking rank = Ranking::Enclosure;
+  /// How the returned grasps are ordered. Load by default: in the physics check (docs/physics.md)
+  /// its rank-1 grasp held more often than the enclosure, epsilon and robust rankings', and its
+  /// top 5 at least as often as the epsilon ranking's.
+  Ranking rank = Ranking::Load;
   /// Ranking::Robust and Ranking::Enclosure: the max(top, robust_pool) best distinct grasps by
   /// epsilon are the pool the ranking picks from. Robust: they are scored by
   /// robust_quality() (with RobustOptions::samples, translation_sigma, rotation_sigma,
