@@ -66,7 +66,7 @@ def plan_batch(hand, targets: Sequence, out, engine: str = "local", *, address: 
     Returns:
         One dict per target, in the order given, with the keys of :data:`SUMMARY_COLUMNS`:
         ``status`` ``"ok"``, ``"failed"`` or ``"skipped"``, ``error`` (one line, "" when none), the
-        number of ``grasps`` and of ``force_closure`` grasps, ``best_epsilon`` (rank 1's),
+        number of ``grasps`` and of ``force_closure`` grasps, ``best_epsilon`` (the largest of the returned grasps'; rank 1 need not have it),
         ``seconds`` (the task's; None when skipped).
 
     Raises:
