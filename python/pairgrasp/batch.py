@@ -66,8 +66,8 @@ def plan_batch(hand, targets: Sequence, out, engine: str = "local", *, address: 
     Returns:
         One dict per target, in the order given, with the keys of :data:`SUMMARY_COLUMNS`:
         ``status`` ``"ok"``, ``"failed"`` or ``"skipped"``, ``error`` (one line, "" when none), the
-        number of ``grasps`` and of ``force_closure`` grasps, ``best_epsilon`` (the largest of the returned grasps'; rank 1 need not have it),
-        ``seconds`` (the task's; None when skipped).
+        number of ``grasps`` and of ``force_closure`` grasps, ``best_epsilon`` (the largest of the
+        returned grasps'; rank 1 need not have it), ``seconds`` (the task's; None when skipped).
 
     Raises:
         ValueError: bad arguments (nothing planned); a failing target does not raise.
