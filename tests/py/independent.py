@@ -170,17 +170,19 @@ def epsilon(points, normals, center, radius, mu=0.5, edges=8) -> float:
 
 def force_resistance(points, normals, center, radius, directions, mu=0.5, edges=8) -> np.ndarray:
     """For each unit force direction d, the largest t with (t d, 0) in the wrench hull, from SciPy's
-    hull facets: the least 1 / (a.(d, 0) / -b) over the facets the ray meets. All 0 when the origin
-    is not strictly inside."""
+    hull facets: the least offset / a.(d, 0) over the facets the ray meets. All 0 when the origin
+    is not strictly inside (as epsilon())."""
     w = reference_wrenches(points, normals, center, radius, mu, edges)
     d = np.asarray(directions, float).reshape(-1, 3)
-    if epsilon(points, normals, center, radius, mu, edges) == 0.0:
+    if len(w) < 7 or np.linalg.matrix_rank(w, tol=1e-9 * np.abs(w).max()) < 6:
         return np.zeros(len(d))
     try:
         hull = ConvexHull(w)
     except QhullError:
         hull = ConvexHull(w, qhull_options="QJ")
     a, off = hull.equations[:, :3], -hull.equations[:, -1]
+    if off.min() <= 0:
+        return np.zeros(len(d))
     out = []
     for u in d:
         along = a @ u

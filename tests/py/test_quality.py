@@ -508,9 +508,8 @@ def test_force_resistance_matches_the_scipy_hull(seed):
         got = pg.force_resistance(P, N, center, r, dirs)
         want = independent.force_resistance(P, N, center, r, dirs)
         np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-12)
-        assert pg.load_resistance(P, N, center, r) == pytest.approx(independent.load_resistance(P, N, center, r),
-                                                                   rel=1e-6, abs=1e-12)
-        q = pg.grasp_quality(P, N, center, r)
+        assert pg.load_resistance(P, N, center, r) == pytest.approx(want[:6].min(), rel=1e-6, abs=1e-12)
+        q = pg.grasp_quality(P, N, center, r, volume=False)
         assert (got >= q.epsilon * (1 - 1e-9)).all()
         checked += bool(q.force_closure)
     assert checked >= 10
