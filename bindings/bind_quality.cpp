@@ -119,6 +119,9 @@ void bind_quality(pyb::module_& m) {
       "(K,) largest pure force at the torque origin along each unit direction (None: load_directions()) in the "
       "grasp wrench space (see pairgrasp.force_resistance).");
 
+  m.def("_load_directions", [] { return load_directions(); },
+        "(6, 3) the six load directions of the physics check (see pairgrasp.LOAD_DIRECTIONS).");
+
   m.def(
       "_epsilon_upper_bound",
       [](const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>>& wrenches) {

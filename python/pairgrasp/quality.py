@@ -271,7 +271,7 @@ def epsilon_upper_bound(points, normals, center, radius, mu=0.5, edges=8, soft=F
 
 #: The six load directions of the physics check (+x, +y, +z, -x, -y, -z of the target frame), along
 #: which gravity is turned while the hand holds the object (docs/physics.md).
-LOAD_DIRECTIONS = np.vstack([np.eye(3), -np.eye(3)])
+LOAD_DIRECTIONS = np.asarray(_core._load_directions())
 
 
 def force_resistance(points, normals, center, radius, directions=None, mu=0.5, edges=8, soft=False, torsion=None,
@@ -292,10 +292,6 @@ def force_resistance(points, normals, center, radius, directions=None, mu=0.5, e
             vector.
     """
     args = _check_inputs(points, normals, center, radius, mu, edges, soft, torsion, soft_rings)
-    if directions is not None:
-        directions = np.asarray(directions, dtype=float)
-        if directions.ndim != 2 or directions.shape[1] != 3:
-            raise ValueError(f"directions: expected shape (K, 3), got {directions.shape}")
     return np.asarray(_core._force_resistance(**_model(args), directions=directions))
 
 
