@@ -36,16 +36,17 @@ Conventions (lengths in metres, angles in radians):
   contact inside the convex hull of the other contacts of its normal group adds only wrenches
   inside the hull: only the vertices of each group's point hull are kept (epsilon and volume
   unchanged). (2) When more than ``max_hull_wrenches`` wrenches remain, epsilon is found by an
-  active set of contacts S. Each facet f of hull(S), with unit normal a_f at distance d_f from the
-  origin, bounds the whole set: its epsilon is at most U = min_f max_w a_f.w (a ball inside the
-  whole hull stays within every half-space a_f.x <= max_w a_f.w) and at least L = min_f d_f =
-  epsilon(S), S being a subset. When U = L epsilon is exact; otherwise the contact of the farthest
-  wrench beyond each facet with d_f < U joins S and the hull is rebuilt. U <= 0 proves
+  active set of wrenches S (every wrench of 4 spread contacts to start). Each facet f of hull(S),
+  with unit normal a_f at distance d_f from the origin, bounds the whole set: its epsilon is at
+  most U = min_f max_w a_f.w (a ball inside the whole hull stays within every half-space
+  a_f.x <= max_w a_f.w) and at least L = min_f d_f = epsilon(S), S being a subset. When U = L
+  epsilon is exact; otherwise the farthest wrench beyond each facet with d_f < U joins S and the
+  hull is rebuilt. U <= 0 proves
   non-closure. The volume reported is then the hull volume of the final S, a lower bound
   (``volume_exact`` False). A full-rank hull that fails qhull's precision checks is built again
   from joggled input (qhull's ``QJ``). Patches of contacts, as fingers pressed on a surface make, need few
-  of their contacts in S (the flask's 80-contact grasp: 16 contacts, 6x faster than the full hull);
-  contacts spread evenly over a sphere need most of them, at up to twice the full hull's cost.
+  of their wrenches in S (a 178-contact grasp of the flask: 58 ms against 2.1 s for the full hull);
+  contacts spread evenly over a sphere need more (60 of them: 1.0 s against 1.7 s for the full hull).
 * A wrench set that does not span the 6-D wrench space (two antipodal point contacts, frictionless
   or single-face contacts, fewer than 7 distinct wrenches) cannot be force-closure. It is detected
   from the singular values of the wrench set before qhull is called and is reported as an ordinary

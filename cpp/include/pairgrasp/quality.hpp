@@ -22,10 +22,10 @@
 ///    pyramid edges, and a contact's wrenches are affine in its point, so only the vertices of
 ///    each normal group's point hull are kept (epsilon and volume unchanged).
 /// 2. When more than QualityOptions::max_hull_wrenches wrenches remain, epsilon comes from an
-///    active set S of contacts (7 to start, spread by farthest-point sampling over
-///    (point / r, normal)). Each facet f of hull(S), unit normal a_f at distance d_f from the
-///    origin, bounds the whole set: epsilon <= U = min_f max_w a_f.w and epsilon >= L = min_f d_f =
-///    epsilon(S). When U = L epsilon is exact; otherwise the contact of the farthest wrench beyond
+///    active set S of wrenches (to start, every wrench of 4 contacts spread by farthest-point
+///    sampling over (point / r, normal)). Each facet f of hull(S), unit normal a_f at distance d_f
+///    from the origin, bounds the whole set: epsilon <= U = min_f max_w a_f.w and epsilon >= L =
+///    min_f d_f = epsilon(S). When U = L epsilon is exact; otherwise the farthest wrench beyond
 ///    each facet with d_f < U joins S and the hull is rebuilt. U <= 0 proves non-closure. The
 ///    volume is then that of hull(S), a lower bound (GraspQuality::volume_exact false).
 #include <pairgrasp/types.hpp>
