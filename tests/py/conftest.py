@@ -13,6 +13,14 @@ import pytest
 
 import pairgrasp as pg
 
+# The CLI tests run `python -m pairgrasp ...` in other working directories: a relative PYTHONPATH
+# (`PYTHONPATH=build/cpp/python`, as `make pytest` sets it) is made absolute so that they import
+# the package under test, not another installed one (or none). The sanitized run (`make
+# asan-pytest`) leaves it as it is: its CLI subprocesses use the package it installs.
+if os.environ.get("PYTHONPATH") and not os.environ.get("PAIRGRASP_SANITIZED"):
+    os.environ["PYTHONPATH"] = os.pathsep.join(
+        os.path.abspath(p) for p in os.environ["PYTHONPATH"].split(os.pathsep) if p)
+
 MODELS = pathlib.Path(__file__).resolve().parents[2] / "models"
 BARRETT = MODELS / "barrett" / "barrett.json"
 TARGETS = MODELS / "targets"
