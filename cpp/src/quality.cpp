@@ -331,6 +331,21 @@ std::vector<Eigen::Index> group_hull_vertices(const Points& p, const Points& n_i
   return keep;
 }
 
+/// `count` contacts spread by farthest-point sampling over the rows of `coords`, from row 0 (ties:
+/// the first farthest). An index repeats when fewer than `count` rows are distinct.
+std::vector<Eigen::Index> spread_contacts(const Matrix& coords, Eigen::Index count) {
+  std::vector<Eigen::Index> out{0};
+  Eigen::VectorXd dist = (coords.rowwise() - coords.row(0)).rowwise().norm();
+  while (static_cast<Eigen::Index>(out.size()) < count) {
+    Eigen::Index k = 0;
+    for (Eigen::Index i = 1; i < dist.size(); ++i)
+      if (dist[i] > dist[k]) k = i;
+    out.push_back(k);
+    dist = dist.cwiseMin((coords.rowwise() - coords.row(k)).rowwise().norm());
+  }
+  return out;
+}
+
 /// Epsilon from hulls of growing subsets S of the contacts (the header's reduction 2). `w` holds
 /// `per` rows per contact; `coords` (contacts, 6) = (point / radius, normal) spreads the start.
 struct ActiveSetQuality {
@@ -362,15 +377,7 @@ ActiveSetQuality active_set_quality(const Matrix& w, Eigen::Index per, const Mat
       if (contact_in_set(k)) best = std::min(best, (coords.row(i) - coords.row(k)).norm());
     return best;
   };
-  add_contact(0);
-  Eigen::VectorXd dist = (coords.rowwise() - coords.row(0)).rowwise().norm();
-  for (Eigen::Index size = 1; size < std::min<Eigen::Index>(kActiveSetStart, n); ++size) {
-    Eigen::Index k = 0;  // the first farthest contact
-    for (Eigen::Index i = 1; i < n; ++i)
-      if (dist[i] > dist[k]) k = i;
-    add_contact(k);
-    dist = dist.cwiseMin((coords.rowwise() - coords.row(k)).rowwise().norm());
-  }
+  for (Eigen::Index c : spread_contacts(coords, std::min<Eigen::Index>(kActiveSetStart, n))) add_contact(c);
   while (true) {
     std::vector<Eigen::Index> rows;
     for (Eigen::Index i = 0; i < n * per; ++i)
@@ -550,14 +557,7 @@ GraspQuality grasp_quality(const Points& points, const Points& normals, const Ei
     bound = std::min(bound, descent_bound(distinct, dirs));
   }
   if (options.min_epsilon > 0.0 && bound >= options.min_epsilon && kept > kBoundContacts) {
-    std::vector<Eigen::Index> few{0};
-    Eigen::VectorXd dist = (coords.rowwise() - coords.row(0)).rowwise().norm();
-    while (static_cast<Eigen::Index>(few.size()) < kBoundContacts) {
-      Eigen::Index k = 0;
-      dist.maxCoeff(&k);
-      few.push_back(k);
-      dist = dist.cwiseMin((coords.rowwise() - coords.row(k)).rowwise().norm());
-    }
+    const std::vector<Eigen::Index> few = spread_contacts(coords, kBoundContacts);
     Matrix sub(static_cast<Eigen::Index>(few.size()) * per, 6);
     for (std::size_t k = 0; k < few.size(); ++k)
       sub.middleRows(static_cast<Eigen::Index>(k) * per, per) = w.middleRows(few[k] * per, per);
