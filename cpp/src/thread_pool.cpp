@@ -18,21 +18,23 @@ namespace pairgrasp::detail {
 namespace {
 
 // One parallel loop: its items are handed out by an atomic counter to the caller and to any
-// worker that joins while it is open.
+// thread that joins while it is open (a worker, or the caller of another loop waiting for its own).
 struct Job {
   const std::function<void(std::size_t)>* body = nullptr;
   std::size_t n = 0;
   std::atomic<std::size_t> next{0};
   std::mutex mutex;
-  std::condition_variable idle;
-  int running = 0;      // workers inside work()
-  bool closed = false;  // the caller is done: late workers leave at once
+  int running = 0;      // other threads inside work()
+  bool closed = false;  // the caller is done: late helpers leave at once
   std::exception_ptr error;
 
-  void work() {
+  // Runs items until none is left, or (`one`) a single item; false when there was none to run.
+  bool work(bool one = false) {
+    bool any = false;
     for (;;) {
       const std::size_t i = next.fetch_add(1, std::memory_order_relaxed);
-      if (i >= n) return;
+      if (i >= n) return any;
+      any = true;
       try {
         (*body)(i);
       } catch (...) {
@@ -40,7 +42,12 @@ struct Job {
         if (!error) error = std::current_exception();
         next.store(n, std::memory_order_relaxed);
       }
+      if (one) return true;
     }
+  }
+  bool idle() {
+    std::lock_guard<std::mutex> lock(mutex);
+    return running == 0;
   }
 };
 
@@ -69,10 +76,30 @@ class Pool {
       wake_.notify_one();
     else
       wake_.notify_all();
+    waiting_.notify_all();
     job->work();
-    std::unique_lock<std::mutex> lock(job->mutex);
-    job->closed = true;
-    job->idle.wait(lock, [&] { return job->running == 0; });
+    {
+      std::lock_guard<std::mutex> lock(job->mutex);
+      job->closed = true;
+    }
+    // Until the threads still inside this loop's items are done, the caller runs items of other
+    // open loops (those nested in the items it waits for, typically) one at a time, rather than idle.
+    for (;;) {
+      std::shared_ptr<Job> other;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        waiting_.wait(lock, [&] { return job->idle() || !queue_.empty(); });
+        if (job->idle()) break;
+        other = queue_.front();
+        if (!join(*other)) {
+          queue_.pop_front();
+          continue;
+        }
+      }
+      while (!job->idle() && other->work(true)) {
+      }
+      leave(*other);
+    }
     if (job->error) std::rethrow_exception(job->error);
   }
 
@@ -88,23 +115,34 @@ class Pool {
         if (stop_) return;
         job = std::move(queue_.front());
         queue_.pop_front();
-      }
-      {
-        std::lock_guard<std::mutex> lock(job->mutex);
-        if (job->closed || job->next.load(std::memory_order_relaxed) >= job->n) continue;
-        ++job->running;
+        if (!join(*job)) continue;
       }
       job->work();
-      {
-        std::lock_guard<std::mutex> lock(job->mutex);
-        --job->running;
-      }
-      job->idle.notify_all();
+      leave(*job);
     }
   }
 
+  // Enters an open job with items left (counted in `running`); false when it is done.
+  static bool join(Job& job) {
+    std::lock_guard<std::mutex> lock(job.mutex);
+    if (job.closed || job.next.load(std::memory_order_relaxed) >= job.n) return false;
+    ++job.running;
+    return true;
+  }
+  // Leaves a job entered by join(), and wakes the callers waiting for their jobs (through mutex_,
+  // so that none misses it between its test and its wait).
+  void leave(Job& job) {
+    {
+      std::lock_guard<std::mutex> lock(job.mutex);
+      --job.running;
+    }
+    { std::lock_guard<std::mutex> lock(mutex_); }
+    waiting_.notify_all();
+  }
+
   std::mutex mutex_;
-  std::condition_variable wake_;
+  std::condition_variable wake_;     // workers: a job was queued, or the pool stops
+  std::condition_variable waiting_;  // callers: a job was queued, or a helper left one
   std::deque<std::shared_ptr<Job>> queue_;
   std::vector<std::thread> workers_;
   bool stop_ = false;

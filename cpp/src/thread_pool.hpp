@@ -14,7 +14,9 @@ int resolve_threads(int requested);
 /// scheduling: items of very different cost balance). Bodies must write disjoint outputs; the
 /// order in which items run is not defined, so results must not depend on it. Nested calls (a
 /// body that calls parallel_for) are allowed: the caller always works through the remaining items
-/// itself, so it never waits for a worker that has not started. The first exception a body throws
+/// itself, so it never waits for a worker that has not started, and while it waits for the threads
+/// still inside its items it runs items of other open loops (the loops nested in those items, or
+/// another caller's), one at a time, so that no thread idles while work is queued. The first exception a body throws
 /// stops further items from starting and is rethrown once the running ones have finished.
 void parallel_for(std::size_t n, int threads, const std::function<void(std::size_t)>& body);
 

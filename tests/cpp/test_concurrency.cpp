@@ -8,6 +8,7 @@
 #include <pairgrasp/hand.hpp>
 #include <pairgrasp/mesh.hpp>
 #include <pairgrasp/pair_index.hpp>
+#include <pairgrasp/planner.hpp>
 
 #include <gtest/gtest.h>
 
@@ -183,6 +184,41 @@ TEST_F(Concurrency, CheckManyAndCloseFromSeveralThreadsEqualSerial) {
     for (std::size_t k = 0; k < ref.size(); ++k) EXPECT_TRUE(same(many[t][k], ref[k])) << "caller " << t << ", pose " << k;
     for (std::size_t k = 0; k < n_close; ++k)
       EXPECT_TRUE(same(closed[t][k], close_ref[(k + t) % n_close])) << "close, caller " << t << ", call " << k;
+  }
+}
+
+TEST_F(Concurrency, PlannersSetUpOnSeveralThreadsAtOnceEqualSerial) {
+  // A planner builds its pair index and its checker's distance fields at once, each a parallel
+  // loop nested in an item of another: with several callers doing so together, threads that wait
+  // for their own loop run items of the others' loops. Everything equals a one-thread build.
+  PlannerOptions serial;
+  serial.threads = 1;
+  serial.edge = 0.008;
+  const GraspPlanner ref(*hand_, *mesh_, Mask(), {}, serial);
+  // Aligned poses (unsettled: they penetrate) checked with exact depths.
+  std::vector<Pose> wrists;
+  std::vector<Eigen::VectorXd> dofs;
+  const std::vector<AlignResult> aligned = ref.align(samples_);
+  for (std::size_t k = 0; k < aligned.size(); ++k)
+    for (const AlignedPose& p : aligned[k].poses) wrists.push_back(p.pose()), dofs.push_back(samples_[k]);
+  std::vector<CheckResult> ref_checks;
+  int pruned = 0;
+  for (std::size_t k = 0; k < wrists.size(); ++k) {
+    ref_checks.push_back(ref.checker().check(wrists[k], dofs[k], true));
+    pruned += ref_checks.back().pruned;
+  }
+  ASSERT_GT(pruned, 0);
+  PlannerOptions two = serial;
+  two.threads = 2;
+  std::vector<std::unique_ptr<GraspPlanner>> built(kCallers);
+  on_callers([&](int t) { built[t] = std::make_unique<GraspPlanner>(*hand_, *mesh_, Mask(), std::vector<Obstacle>{}, two); });
+  for (int t = 0; t < kCallers; ++t) {
+    const PairIndex& a = built[t]->target_index().index;
+    ASSERT_EQ(a.size(), ref.target_index().index.size()) << "caller " << t;
+    EXPECT_TRUE(a.pairs() == ref.target_index().index.pairs()) << "caller " << t;
+    EXPECT_TRUE(a.features() == ref.target_index().index.features()) << "caller " << t;
+    for (std::size_t k = 0; k < wrists.size(); ++k)
+      EXPECT_TRUE(same(built[t]->checker().check(wrists[k], dofs[k], true), ref_checks[k])) << "caller " << t << ", pose " << k;
   }
 }
 
