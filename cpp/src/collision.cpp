@@ -366,7 +366,7 @@ GraspChecker::Impl::LinkState GraspChecker::Impl::link_state(int l, const Pose& 
   LinkState out;
   for (std::size_t s = 0; s < scene.size(); ++s) {
     const bool obstacle = scene[s].obstacle;
-    const vd::PairCheck pc = pair(l, pose, static_cast<int>(s), obstacle ? 0.0 : options.depth_tolerance);
+    const vd::PairCheck pc = pair(l, pose, static_cast<int>(s), obstacle ? 0.0 : options.depth_tolerance, obstacle);
     if (!pc.intersecting && !pc.inside) continue;
     out.depth = std::max(out.depth, pc.depth);
     out.penetrating = out.penetrating || obstacle || pc.depth > options.depth_tolerance;

@@ -284,10 +284,11 @@ struct Source {
 // `sd(source, p)` bounds B's signed distance, `refine(source, p, interval)` gives it exactly. The
 // search ends once lo > stop, or when M's relation to 0 and to `tol` is certain and M is known to
 // within `err` (the interpolation error of tight bounds: est = the largest tight estimate, exact
-// value or certain lower bound, whichever is larger).
+// value or certain lower bound, whichever is larger). `tol_only`: the search ends once M's relation
+// to `tol` is certain.
 template <class Sd, class Refine>
 vd::DepthBounds deepest(const Source* sources, int count, Sd&& sd, Refine&& refine, double tol, double err,
-                        double stop) {
+                        double stop, bool tol_only = false) {
   using Entry = Scratch::Entry;
   std::vector<Entry>& heap = scratch().heap;
   heap.clear();
@@ -367,7 +368,7 @@ vd::DepthBounds deepest(const Source* sources, int count, Sd&& sd, Refine&& refi
     if (lo > stop) break;
     const bool inside_known = lo > 0.0 || hi <= 0.0;
     const bool tol_known = lo > tol || hi <= tol;
-    if (inside_known && tol_known && hi <= est + err) break;
+    if (tol_known && (tol_only || (inside_known && hi <= est + err))) break;
     std::pop_heap(heap.begin(), heap.end(), less);
     const Entry e = heap.back();
     heap.pop_back();
@@ -391,7 +392,7 @@ vd::DepthBounds deepest(const Source* sources, int count, Sd&& sd, Refine&& refi
 
 }  // namespace
 
-vd::PairCheck GraspChecker::Impl::field_pair(int l, const Pose& pose, int s, double stop) const {
+vd::PairCheck GraspChecker::Impl::field_pair(int l, const Pose& pose, int s, double stop, bool intersection) const {
   const vd::LinkModel& L = links[l];
   const vd::SceneModel& S = scene[s];
   if (!S.field || L.surface.empty()) return check_pair(l, pose, s, stop);
@@ -416,6 +417,7 @@ vd::PairCheck GraspChecker::Impl::field_pair(int l, const Pose& pose, int s, dou
     else if (side == kUndecided) undecided = true;
     else if (side == kIn && comps_match) comp_link[c] = any_in = true;
   }
+  if (crossing == 0 && undecided && !intersection) crossing = -1;  // left open: every sample is searched
   if (crossing == 0 && undecided) {
     fcl::CollisionRequestd request;
     fcl::CollisionResultd result;
@@ -430,6 +432,7 @@ vd::PairCheck GraspChecker::Impl::field_pair(int l, const Pose& pose, int s, dou
     }
   }
   r.intersecting = crossing == 1;
+  const bool all = crossing != 0;  // crossing or left open: the depth searches take every sample
 
   // Depth: target samples inside the (closed) link, link samples inside the target.
   const Pose inv = pose.inverse();
@@ -437,12 +440,12 @@ vd::PairCheck GraspChecker::Impl::field_pair(int l, const Pose& pose, int s, dou
   int n = 0;
   if (L.query->closed()) {
     std::vector<char>& comp_target = sc.comp_target;
-    const bool any = r.intersecting || vd::components_inside(S.samples, inv, L.bounds, [&](const Vec3& q) {
+    const bool any = all || vd::components_inside(S.samples, inv, L.bounds, [&](const Vec3& q) {
       return strictly_inside(L.distance.at(q), L.query->surface_tolerance(), [&] { return L.query->signed_distance(q); });
     }, comp_target);
-    if (any) sources[n++] = {&S.samples, inv, L.bounds, r.intersecting ? nullptr : &comp_target};
+    if (any) sources[n++] = {&S.samples, inv, L.bounds, all ? nullptr : &comp_target};
   }
-  if (r.intersecting || any_in) sources[n++] = {&L.samples, pose, S.bounds, r.intersecting ? nullptr : &comp_link};
+  if (all || any_in) sources[n++] = {&L.samples, pose, S.bounds, all ? nullptr : &comp_link};
   if (n == 0) return r;
   const vd::DepthBounds depth = deepest(
       sources, n,
@@ -453,7 +456,7 @@ vd::PairCheck GraspChecker::Impl::field_pair(int l, const Pose& pose, int s, dou
         return sources[src].samples == &L.samples ? S.query->signed_distance_hint(p, hint)
                                                   : L.query->signed_distance_hint(p, hint);
       },
-      options.depth_tolerance, 0.5 * std::sqrt(3.0) * options.field_cell, stop);
+      options.depth_tolerance, 0.5 * std::sqrt(3.0) * options.field_cell, stop, !intersection);
   r.inside = depth.lo > 0.0;
   // Stopped early: the certain lower bound (beyond the tolerance), as the exact path reports one.
   r.depth = !r.inside ? 0.0 : (depth.lo > stop ? depth.lo : depth.est);

@@ -187,12 +187,23 @@ struct GraspChecker::Impl {
   bool touches_occluded(int l, const Pose& pose) const;
   /// check_pair() through the distance fields: the same flags, depth within the field's bound;
   /// the exact check_pair() decides wherever the bounds do not.
+  ///
+  /// `intersection` false, for callers that need neither `intersecting` nor the depth itself, only
+  /// whether it exceeds options.depth_tolerance (a link's state while settling and closing): where
+  /// the fields leave the triangle test open, FCL is not asked; the depth search takes every sample
+  /// instead of the components FCL would leave (the same deepest sample: a component that does not
+  /// cross the surface has none inside), `intersecting` stays false, and the search ends once the
+  /// depth is known to lie beyond the tolerance or within it. `depth` is then a certain lower bound
+  /// beyond the tolerance (as with `stop`), and within it an estimate in the search's bounds, 0 when
+  /// no sample is known to lie inside. The exact check_pair() ignores the flag.
   geometry_detail::PairCheck field_pair(int l, const Pose& pose, int s,
-                                          double stop = std::numeric_limits<double>::infinity()) const;
+                                          double stop = std::numeric_limits<double>::infinity(),
+                                          bool intersection = true) const;
   /// field_pair() or check_pair(), as options.use_distance_field says.
   geometry_detail::PairCheck pair(int l, const Pose& pose, int s,
-                                    double stop = std::numeric_limits<double>::infinity()) const {
-    return options.use_distance_field ? field_pair(l, pose, s, stop) : check_pair(l, pose, s, stop);
+                                    double stop = std::numeric_limits<double>::infinity(),
+                                    bool intersection = true) const {
+    return options.use_distance_field ? field_pair(l, pose, s, stop, intersection) : check_pair(l, pose, s, stop);
   }
   /// touches_occluded() through the occluded faces' distance field (exact where undecided).
   bool field_touches_occluded(int l, const Pose& pose) const;
@@ -203,7 +214,8 @@ struct GraspChecker::Impl {
   /// What one link at `pose` (target frame) does, without strings: `bad` when it penetrates the
   /// target beyond the tolerance, intersects or lies inside an obstacle, or touches occluded faces
   /// (exactly the links that make check() prune); `depth` its deepest penetration into anything,
-  /// searched as check() with exact_depth false (a lower bound beyond the tolerance).
+  /// searched as check() with exact_depth false (a lower bound beyond the tolerance; within it only
+  /// an estimate, see field_pair()'s `intersection`).
   struct LinkState {
     bool bad = false;
     bool penetrating = false;  ///< beyond the depth tolerance in the target, or in an obstacle

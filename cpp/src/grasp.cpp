@@ -150,7 +150,7 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
       for (int l : moving)
         for (std::size_t s = 0; s < I.scene.size() && !blocked; ++s) {
           // Only "beyond the tolerance" matters here: the depth search may stop there.
-          const vd::PairCheck pc = I.pair(l, poses[l], static_cast<int>(s), I.scene[s].obstacle ? 0.0 : tol);
+          const vd::PairCheck pc = I.pair(l, poses[l], static_cast<int>(s), I.scene[s].obstacle ? 0.0 : tol, I.scene[s].obstacle);
           if ((pc.intersecting || pc.inside) && (I.scene[s].obstacle || pc.depth > tol)) blocked = true;
         }
       if (blocked) {

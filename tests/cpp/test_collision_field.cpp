@@ -1,7 +1,7 @@
 // GraspChecker through distance fields against the exact path (use_distance_field = false): on
 // random poses of both bundled hands on every bundled target, with and without the paint files
-// and with a table under the target, every decision is the same and depths agree within the
-// field's bound. Most poses put a random point of a random link within a few millimetres of a
+// and with a table under the target, every decision is the same (the checks' and the per-link
+// states settling uses) and depths agree within the field's bound. Most poses put a random point of a random link within a few millimetres of a
 // random target surface point (links straddling the surface), the rest anywhere near the target.
 // Closing and contacts are compared the same way.
 #include <pairgrasp/collision.hpp>
@@ -107,6 +107,17 @@ void compare(const GraspChecker& exact, const GraspChecker& field, const Poses& 
     t.obstacle += x.obstacle_collision;
     t.colliding += x.collision;
     EXPECT_TRUE(same) << x.reason << " | " << y.reason;
+    // The string-free per-link states that settling and closing use (without FCL's triangle test
+    // where the fields leave it open): the same decisions, a depth beyond the tolerance in both.
+    const GraspChecker::Impl &E = exact.impl(), &F = field.impl();
+    const std::vector<Pose> poses = E.target_frame_poses(p.wrists[k], p.dofs[k]);
+    for (std::size_t l = 0; l < poses.size(); ++l) {
+      const auto se = E.link_state(static_cast<int>(l), poses[l]), sf = F.link_state(static_cast<int>(l), poses[l]);
+      const bool state_same = se.bad == sf.bad && se.penetrating == sf.penetrating;
+      t.differing += !state_same;
+      EXPECT_TRUE(state_same) << "link_state of link " << l;
+      if (se.penetrating && sf.penetrating && !x.obstacle_collision) EXPECT_TRUE(se.depth > tol && sf.depth > tol);
+    }
     ASSERT_EQ(x.links.size(), y.links.size());
     for (std::size_t l = 0; l < x.links.size(); ++l) {
       EXPECT_EQ(x.links[l].colliding, y.links[l].colliding) << x.links[l].link;
