@@ -26,8 +26,6 @@ namespace {
 // than kRtol times the largest wrench norm to a facet counts as on the boundary. Since epsilon never
 // exceeds the smallest singular value, both tests declare the same near-degenerate grasps non-closure.
 constexpr double kRtol = 1e-9;
-// Contacts of the small hull whose facets bound epsilon before a min_epsilon skip.
-constexpr Eigen::Index kBoundContacts = 6;
 // qhull options: SciPy's ConvexHull defaults ("Qt", plus "Qx" above 4-D), then joggled input.
 constexpr const char* kHullOptions = "Qt Qx";
 constexpr const char* kJoggleOptions = "QJ Qt";
@@ -352,12 +350,17 @@ struct ActiveSetQuality {
   double epsilon = 0.0, volume = 0.0;
   std::string reason;
   bool exact = false;
+  double upper = std::numeric_limits<double>::infinity();  ///< epsilon <= upper
+  bool below = false;  ///< stopped with upper < `below`: epsilon is then only a lower bound
 };
 
 /// `until_closed`: stop at the first subset whose hull holds the origin (force closure proven, its
-/// epsilon a lower bound; `exact` false).
+/// epsilon a lower bound; `exact` false). `below` > 0: epsilon is wanted only when it reaches
+/// `below`; once a subset's facets bound it below that, the search stops, at once when `closed`
+/// (force closure known) or a subset's hull holds the origin, else as `until_closed`.
 ActiveSetQuality active_set_quality(const Matrix& w, Eigen::Index per, const Matrix& coords, double tol, bool volume,
-                                    double boundary_tol, bool joggle, bool until_closed = false) {
+                                    double boundary_tol, bool joggle, bool until_closed = false, double below = 0.0,
+                                    bool closed = false) {
   const Eigen::Index n = coords.rows();
   if (n == 0) return {0.0, 0.0, "no contacts", true};
   // The set is kept per wrench row: it starts with every wrench of a few spread contacts and then
@@ -378,6 +381,7 @@ ActiveSetQuality active_set_quality(const Matrix& w, Eigen::Index per, const Mat
     return best;
   };
   for (Eigen::Index c : spread_contacts(coords, std::min<Eigen::Index>(kActiveSetStart, n))) add_contact(c);
+  double least_upper = std::numeric_limits<double>::infinity();  // over the subsets so far
   while (true) {
     std::vector<Eigen::Index> rows;
     for (Eigen::Index i = 0; i < n * per; ++i)
@@ -385,8 +389,8 @@ ActiveSetQuality active_set_quality(const Matrix& w, Eigen::Index per, const Mat
     Matrix sub(static_cast<Eigen::Index>(rows.size()), 6);
     for (std::size_t k = 0; k < rows.size(); ++k) sub.row(static_cast<Eigen::Index>(k)) = w.row(rows[k]);
     HullQuality h = hull_quality(sub, tol, boundary_tol, volume, joggle);
-    if (static_cast<Eigen::Index>(rows.size()) == n * per) return {h.epsilon, h.volume, h.reason, true};
-    if (until_closed && h.reason.empty()) return {h.epsilon, h.volume, h.reason, false};
+    if (static_cast<Eigen::Index>(rows.size()) == n * per) return {h.epsilon, h.volume, h.reason, true, least_upper};
+    if (until_closed && h.reason.empty()) return {h.epsilon, h.volume, h.reason, false, least_upper, least_upper < below};
     if (h.planes.rows() == 0) {  // the subset does not span 6-D: widen it by its farthest contacts
       std::vector<double> far(n);
       for (Eigen::Index i = 0; i < n; ++i) far[i] = contact_in_set(i) ? -1.0 : distance_to_set(i);
@@ -413,8 +417,13 @@ ActiveSetQuality active_set_quality(const Matrix& w, Eigen::Index per, const Mat
       if (d[f] < upper - boundary_tol) add.push_back(best);
     }
     if (upper <= boundary_tol)  // a direction no wrench reaches beyond the origin
-      return {0.0, h.volume, h.reason.empty() ? origin_reason(upper, boundary_tol) : h.reason, false};
-    if (upper <= lower + boundary_tol) return {h.epsilon, h.volume, h.reason, false};  // the bounds meet
+      return {0.0, h.volume, h.reason.empty() ? origin_reason(upper, boundary_tol) : h.reason, false, upper};
+    if (upper <= lower + boundary_tol) return {h.epsilon, h.volume, h.reason, false, upper};  // the bounds meet
+    least_upper = std::min(least_upper, upper);
+    if (least_upper < below) {  // epsilon is not wanted: only force closure may be left to decide
+      if (closed || h.reason.empty()) return {h.reason.empty() ? h.epsilon : 0.0, h.volume, "", false, least_upper, true};
+      until_closed = true;
+    }
     bool grew = false;
     for (Eigen::Index r : add)
       if (!in_set[static_cast<std::size_t>(r)]) in_set[static_cast<std::size_t>(r)] = 1, grew = true;
@@ -548,59 +557,49 @@ GraspQuality grasp_quality(const Points& points, const Points& normals, const Ei
     return q;
   }
   // Below min_epsilon the hull is not wanted. The hull-free bound decides first, then a descent of
-  // the support function from it; where neither does, a hull of a few contacts spread over the
-  // grasp: each of its facets' normals a bounds epsilon by max_w a.w over every wrench.
+  // the support function from it; where neither does, the active set's hulls, whose facets bound
+  // epsilon from above as the set grows, stop once they bound it below min_epsilon.
   double bound = q.epsilon_bound, lower = origin.inner;
   if (options.min_epsilon > 0.0 && bound >= options.min_epsilon) {
     Matrix dirs(6, 12);
     dirs << Matrix::Identity(6, 6), svd.matrixV();
     bound = std::min(bound, descent_bound(distinct, dirs));
   }
-  if (options.min_epsilon > 0.0 && bound >= options.min_epsilon && kept > kBoundContacts) {
-    const std::vector<Eigen::Index> few = spread_contacts(coords, kBoundContacts);
-    Matrix sub(static_cast<Eigen::Index>(few.size()) * per, 6);
-    for (std::size_t k = 0; k < few.size(); ++k)
-      sub.middleRows(static_cast<Eigen::Index>(k) * per, per) = w.middleRows(few[k] * per, per);
-    const HullQuality h = hull_quality(sub, tol, boundary_tol, false, options.joggle);
-    lower = std::max(lower, h.epsilon);  // > 0: the few contacts already close
-    for (Eigen::Index f = 0; f < h.planes.rows(); ++f)
-      bound = std::min(bound, (w * h.planes.row(f).head<6>().transpose()).maxCoeff());
-    bound = std::max(bound, 0.0);
-  }
-  if (options.min_epsilon > 0.0 && bound < options.min_epsilon) {
+  const bool skip = options.min_epsilon > 0.0 && bound < options.min_epsilon;
+  if (skip && origin.separated) {  // not force-closure: epsilon 0 is exact
+    q.reason = "the origin is outside the wrench hull";
     q.volume_exact = false;
     q.epsilon_bound = bound;
-    if (origin.separated) {  // not force-closure: epsilon 0 is exact
-      q.reason = "the origin is outside the wrench hull";
-      return q;
-    }
+    return q;
+  }
+  if (skip && lower > 0.0) {  // force closure proven by Wolfe's simplex, epsilon bounded below it
+    q.volume_exact = false;
+    q.epsilon_bound = bound;
     q.epsilon_computed = false;
-    if (lower == 0.0) {
-      // Force closure is still decided: by hulls of growing subsets of the contacts (the active set
-      // of reduction 2), stopping at the first that holds the origin, or at the whole set.
-      const ActiveSetQuality a = active_set_quality(w, per, coords, tol, false, boundary_tol, options.joggle, true);
-      if (!a.reason.empty()) {
-        q.reason = a.reason;
-        q.epsilon_computed = true;
-        return q;
-      }
-      lower = a.epsilon;
-    }
     q.epsilon = lower;
     q.force_closure = true;
     return q;
   }
-  if (w.rows() <= options.max_hull_wrenches) {
+  if (!skip && w.rows() <= options.max_hull_wrenches) {
     HullQuality h = hull_quality(w, tol, boundary_tol, options.volume, options.joggle);
     q.epsilon = h.epsilon;
     q.volume = h.volume;
     q.reason = std::move(h.reason);
   } else {
-    ActiveSetQuality a = active_set_quality(w, per, coords, tol, options.volume, boundary_tol, options.joggle);
+    // Skipped: force closure is still decided, by hulls of growing subsets of the contacts (the
+    // active set of reduction 2), stopping at the first that holds the origin, or at the whole set.
+    ActiveSetQuality a = active_set_quality(w, per, coords, tol, options.volume && !skip, boundary_tol, options.joggle,
+                                            skip, options.min_epsilon, lower > 0.0);
     q.epsilon = a.epsilon;
     q.volume = a.volume;
     q.reason = std::move(a.reason);
     q.volume_exact = a.exact;
+    if ((skip || a.below) && q.reason.empty()) {  // epsilon below min_epsilon: a lower bound of it
+      q.epsilon = std::max(q.epsilon, lower);
+      q.epsilon_computed = a.exact;
+      q.epsilon_bound = std::min(bound, a.upper);
+      q.volume_exact = false;
+    }
   }
   if (!q.reason.empty()) q.epsilon = 0.0;
   q.force_closure = q.reason.empty();

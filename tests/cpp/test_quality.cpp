@@ -252,30 +252,34 @@ TEST(Quality, MinEpsilonSkipsOnlyGraspsThatCannotReachIt) {
   EXPECT_GE(checked, 5);
 }
 
-// With more than 6 contacts, the hull of 6 of them bounds epsilon through its facets before a
-// min_epsilon skip: every skip is of a grasp whose full epsilon is below the threshold, a skipped
-// grasp reported force-closure is force-closure with at least the reported epsilon, and that
-// bound skips grasps the hull-free one cannot.
-TEST(Quality, MinEpsilonFacetBoundIsSound) {
+// Above max_hull_wrenches, the active set's hulls bound epsilon from above through their facets as
+// the set grows, and stop once that bound falls below min_epsilon: every skip is of a grasp whose
+// full epsilon is below the threshold, a skipped grasp reported force-closure is force-closure with
+// at least the reported epsilon, and those facets skip grasps that the hull-free bounds cannot
+// (the same grasps with the whole hull built at once, max_hull_wrenches 320, are not skipped).
+TEST(Quality, MinEpsilonActiveSetBoundIsSound) {
   std::mt19937 rng(23);
   int skipped_by_facets = 0, proven = 0, cases = 0;
-  for (int trial = 0; trial < 24; ++trial) {
-    const Contacts c = sphere_grasp(rng, 8 + trial % 4, 0.04, 0.3);
+  for (int trial = 0; trial < 32; ++trial) {
+    const Contacts c = sphere_grasp(rng, 9 + trial % 4, 0.04, 0.3);  // 72..96 wrenches
     const pg::GraspQuality full = pg::grasp_quality(c.points, c.normals, Eigen::Vector3d::Zero(), 0.04, options(0.6, 8));
     if (full.rank < 6) continue;
-    for (double f : {0.3, 0.6, 0.9}) {
-      pg::QualityOptions o = options(0.6, 8);
-      o.min_epsilon = f * full.epsilon_bound;
+    for (double f : {0.3, 0.5, 0.7, 0.9}) {
+      pg::QualityOptions o = options(0.6, 8, 64), at_once = options(0.6, 8, 320);
+      o.min_epsilon = at_once.min_epsilon = f * full.epsilon_bound;
       const pg::GraspQuality q = pg::grasp_quality(c.points, c.normals, Eigen::Vector3d::Zero(), 0.04, o);
+      const pg::GraspQuality hull_free = pg::grasp_quality(c.points, c.normals, Eigen::Vector3d::Zero(), 0.04, at_once);
       ++cases;
       if (q.epsilon_computed) {
-        EXPECT_EQ(q.epsilon, full.epsilon);
-        EXPECT_EQ(q.force_closure, full.force_closure);
+        EXPECT_NEAR(q.epsilon, full.epsilon, 1e-9 * full.epsilon_bound) << trial;
+        EXPECT_EQ(q.force_closure, full.force_closure) << trial;
+        EXPECT_TRUE(hull_free.epsilon_computed) << trial;  // the facets skip at least what the bounds do
         continue;
       }
       EXPECT_LT(full.epsilon, o.min_epsilon) << trial;  // never skips a grasp that reaches it
       EXPECT_GE(q.epsilon_bound, full.epsilon * (1 - 1e-12)) << trial;
-      skipped_by_facets += q.epsilon_bound < full.epsilon_bound;
+      EXPECT_LT(q.epsilon_bound, o.min_epsilon) << trial;
+      skipped_by_facets += hull_free.epsilon_computed;
       EXPECT_EQ(q.force_closure, full.force_closure) << trial;  // decided even when skipped
       if (q.force_closure) {
         ++proven;
@@ -286,8 +290,10 @@ TEST(Quality, MinEpsilonFacetBoundIsSound) {
       }
     }
   }
-  EXPECT_GT(cases, 40);
-  EXPECT_GT(skipped_by_facets, 5);
+  std::printf("%d cases: %d skipped by the active set's facets, %d skipped grasps proven force-closure\n", cases,
+              skipped_by_facets, proven);
+  EXPECT_GT(cases, 100);
+  EXPECT_GE(skipped_by_facets, 8);
   EXPECT_GT(proven, 0);
 }
 

@@ -56,9 +56,9 @@ struct PipelineOptions {
   /// bound), then take their hulls best bound first, in rounds of hull_rank, 2 hull_rank, 4 ...
   /// candidates; T is the hull_rank-th best epsilon of the candidates before the round (this
   /// chunk's and earlier ones'). A candidate whose epsilon provably lies below T (QualityOptions::min_epsilon: the
-  /// hull-free bound, then the facets of a hull of 6 of its contacts) cannot reach them: when those
-  /// 6 contacts close, it is force-closure with their epsilon (a lower bound of its own), else the
-  /// full hull decides. So the hull_rank best candidates and the force-closure ones are those of
+  /// hull-free bounds, then the facets of the active set's hulls) cannot reach them: it is
+  /// force-closure with a lower bound of its epsilon when Wolfe's simplex or a subset's hull holds
+  /// the origin, else growing subsets decide. So the hull_rank best candidates and the force-closure ones are those of
   /// scoring every candidate fully; the others' epsilon may be a lower bound. 0: every candidate
   /// fully.
   int hull_rank = 0;

@@ -58,13 +58,13 @@ struct QualityOptions {
   /// A caller that only wants grasps whose epsilon reaches this value (dimensionless, >= 0) skips
   /// the hull of any grasp whose epsilon provably lies below it: first by epsilon_upper_bound(),
   /// then by a descent of the support function from its directions, then, where neither decides
-  /// and there are more than 6 contacts, by the hull of 6 contacts spread over the grasp, each of
-  /// whose facet normals a bounds epsilon by max_w a.w over every wrench. The result then has
+  /// and there are more than max_hull_wrenches wrenches, by the active set of reduction 2, whose
+  /// bound U falls as its set grows: it stops once U < min_epsilon. The result then has
   /// epsilon_computed false, volume 0, volume_exact false and the bound that decided in
   /// epsilon_bound. Force closure is still decided exactly, without the full hull where possible:
   /// Wolfe's minimum-norm point either separates the origin (not force-closure, epsilon 0) or ends
-  /// on a simplex of 7 wrenches holding it, whose facet distances bound epsilon from below (or the
-  /// 6 contacts' hull holds it); only where neither certificate holds do hulls of growing subsets
+  /// on a simplex of 7 wrenches holding it, whose facet distances bound epsilon from below (or an
+  /// active set's hull holds it); only where neither certificate holds do hulls of growing subsets
   /// of the contacts decide. A skipped force-closure grasp has that lower bound as its epsilon.
   /// 0: every full-rank grasp gets its hull.
   double min_epsilon = 0.0;
