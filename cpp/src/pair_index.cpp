@@ -207,16 +207,23 @@ struct PairEstimate {
   }
 };
 
-PairEstimate estimate_pairs(const Mesh& mesh, double d_max, const Mask& free_faces) {
-  PairEstimate e;
+// The surface area taking part in the estimate (m^2). Throws for a mesh without any.
+double estimate_area(const Mesh& mesh) {
+  double area = 0.0;
   for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) {
     if (mesh.faces.row(f).minCoeff() < 0 || mesh.faces.row(f).maxCoeff() >= mesh.vertices.rows()) continue;
     const Eigen::Vector3d a = mesh.vertices.row(mesh.faces(f, 0)).transpose();
     const Eigen::Vector3d b = mesh.vertices.row(mesh.faces(f, 1)).transpose();
     const Eigen::Vector3d c = mesh.vertices.row(mesh.faces(f, 2)).transpose();
-    e.area += 0.5 * (b - a).cross(c - a).norm();
+    area += 0.5 * (b - a).cross(c - a).norm();
   }
-  if (!(e.area > 0.0) || !std::isfinite(e.area)) throw std::invalid_argument("mesh: has no surface area");
+  if (!(area > 0.0) || !std::isfinite(area)) throw std::invalid_argument("mesh: has no surface area");
+  return area;
+}
+
+PairEstimate estimate_pairs(const Mesh& mesh, double d_max, const Mask& free_faces) {
+  PairEstimate e;
+  e.area = estimate_area(mesh);
   const double coarse_edge = std::sqrt(e.area / (kFacetAreaPerEdge2 * 1500.0));
   const UnitFacets coarse = tessellate(mesh, coarse_edge, free_faces);
   const double n = double(coarse.points.rows());
@@ -574,25 +581,36 @@ void refuse_far_over(const Mesh& mesh, double edge, const Mask& free_faces, cons
     throw refusal(mesh, edge, free_faces, options, est, "about " + fmt(estimated, 3));
 }
 
+// refuse_far_over() at a given edge, with the coarse estimate only where it may refuse: the
+// estimate's fraction of pairs is at most 1, so at most half the square of the facets the area
+// makes at `edge` are estimated, and when that fits, so does the estimate.
+void refuse_far_over(const Mesh& mesh, double edge, const Mask& free_faces, const PairIndexOptions& options) {
+  const PairEstimate all{estimate_area(mesh), 1.0};
+  if (all.pairs(edge) > 1.5 * double(pair_limit(options.max_pairs)))
+    refuse_far_over(mesh, edge, free_faces, options, estimate_pairs(mesh, options.d_max, free_faces));
+}
+
 }  // namespace
 
 void check_pair_estimate(const Mesh& mesh, double edge, const Mask& free_faces, const PairIndexOptions& options) {
   check_build_arguments(edge, options);
-  if (edge > 0.0) refuse_far_over(mesh, edge, free_faces, options, estimate_pairs(mesh, options.d_max, free_faces));
+  if (edge > 0.0) refuse_far_over(mesh, edge, free_faces, options);
 }
 
 TargetIndex build_target_index(const Mesh& mesh, double edge, const Mask& free_faces,
                                const PairIndexOptions& options) {
   check_build_arguments(edge, options);
-  const PairEstimate est = estimate_pairs(mesh, options.d_max, free_faces);
-  if (edge == 0.0) edge = suggest_edge_from(mesh, options.d_max, pair_limit(options.max_pairs), free_faces, est);
-  refuse_far_over(mesh, edge, free_faces, options, est);
+  if (edge == 0.0) {
+    edge = suggest_edge_from(mesh, options.d_max, pair_limit(options.max_pairs), free_faces,
+                             estimate_pairs(mesh, options.d_max, free_faces));
+  }
+  refuse_far_over(mesh, edge, free_faces, options);
   UnitFacets facets = tessellate(mesh, edge, free_faces);
   try {
     PairIndex index(facets.points, facets.normals, facets.free, options);
     return TargetIndex{std::move(facets), std::move(index)};
   } catch (const PairBudgetExceeded& e) {
-    throw refusal(mesh, edge, free_faces, options, est,
+    throw refusal(mesh, edge, free_faces, options, estimate_pairs(mesh, options.d_max, free_faces),
                   std::to_string(e.facets) + (free_faces.size() ? " free" : "") + " unit facets and " +
                       std::to_string(e.pairs));
   }
