@@ -84,11 +84,14 @@ class Pool {
     }
     // Until the threads still inside this loop's items are done, the caller runs items of other
     // open loops (those nested in the items it waits for, typically) one at a time, rather than idle.
+    // An item it runs may wait in turn and help again: past kMaxHelping levels it only waits, so that
+    // the stack stays bounded.
+    const bool help = helping < kMaxHelping;
     for (;;) {
       std::shared_ptr<Job> other;
       {
         std::unique_lock<std::mutex> lock(mutex_);
-        waiting_.wait(lock, [&] { return job->idle() || !queue_.empty(); });
+        waiting_.wait(lock, [&] { return job->idle() || (help && !queue_.empty()); });
         if (job->idle()) break;
         other = queue_.front();
         if (!join(*other)) {
@@ -96,8 +99,10 @@ class Pool {
           continue;
         }
       }
+      ++helping;
       while (!job->idle() && other->work(true)) {
       }
+      --helping;
       leave(*other);
     }
     if (job->error) std::rethrow_exception(job->error);
@@ -105,6 +110,8 @@ class Pool {
 
  private:
   static constexpr int kMaxWorkers = 256;
+  static constexpr int kMaxHelping = 4;
+  static thread_local int helping;  // levels of other loops' items this thread is running while it waits
 
   void loop() {
     for (;;) {
@@ -147,6 +154,8 @@ class Pool {
   std::vector<std::thread> workers_;
   bool stop_ = false;
 };
+
+thread_local int Pool::helping = 0;
 
 // The pool of this process. A child made by fork() has none of its parent's threads, so it makes
 // its own (the parent's object is left alone: its mutexes may have been held at the fork).
