@@ -586,19 +586,21 @@ GraspQuality grasp_quality(const Points& points, const Points& normals, const Ei
     q.volume = h.volume;
     q.reason = std::move(h.reason);
   } else {
-    // Skipped: force closure is still decided, by hulls of growing subsets of the contacts (the
-    // active set of reduction 2), stopping at the first that holds the origin, or at the whole set.
+    // The active set (reduction 2). Skipped, it only decides force closure: hulls of growing
+    // subsets of the contacts, stopping at the first that holds the origin, or at the whole set.
     ActiveSetQuality a = active_set_quality(w, per, coords, tol, options.volume && !skip, boundary_tol, options.joggle,
                                             skip, options.min_epsilon, lower > 0.0);
     q.epsilon = a.epsilon;
     q.volume = a.volume;
     q.reason = std::move(a.reason);
     q.volume_exact = a.exact;
-    if ((skip || a.below) && q.reason.empty()) {  // epsilon below min_epsilon: a lower bound of it
-      q.epsilon = std::max(q.epsilon, lower);
-      q.epsilon_computed = a.exact;
-      q.epsilon_bound = std::min(bound, a.upper);
+    if (skip || a.below) {  // epsilon below min_epsilon: no volume, and a lower bound of epsilon
       q.volume_exact = false;
+      q.epsilon_bound = std::min(bound, a.upper);
+      if (q.reason.empty() && !a.exact) {
+        q.epsilon = std::max(q.epsilon, lower);
+        q.epsilon_computed = false;
+      }
     }
   }
   if (!q.reason.empty()) q.epsilon = 0.0;
