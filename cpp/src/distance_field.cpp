@@ -56,12 +56,20 @@ DistanceField::DistanceField(const SurfaceQuery& query, const DistanceFieldOptio
   // Brick centres (exact); a brick is stored when its centre is within band + half-diagonal.
   const double half_diag = 0.5 * std::sqrt(3.0) * brick;
   centre_value_.assign(total, 0.0);
-  const double inf = std::numeric_limits<double>::infinity();
+  centre_point_.assign(3 * total, 0.0f);
   vd::parallel_for(static_cast<std::size_t>(total), options.threads, [&](std::size_t i) {
     const int bx = static_cast<int>(i % nb_.x()), by = static_cast<int>((i / nb_.x()) % nb_.y()),
               bz = static_cast<int>(i / (static_cast<std::size_t>(nb_.x()) * nb_.y()));
     const Eigen::Vector3d c = origin_ + brick * Eigen::Vector3d(bx + 0.5, by + 0.5, bz + 0.5);
-    centre_value_[i] = exact_distance(query, c, inf);
+    SurfacePoint cp;
+    if (signed_) {
+      centre_value_[i] = query.signed_distance(c, cp);
+    } else {
+      cp = query.closest(c);
+      centre_value_[i] = cp.distance;
+    }
+    // Relative to the grid's origin: float rounding of at most 2^-24 of the grid's extent.
+    for (int a = 0; a < 3; ++a) centre_point_[3 * i + a] = static_cast<float>(cp.point[a] - origin_[a]);
   });
   brick_slot_.assign(total, -1);
   std::vector<std::int64_t> stored;
@@ -113,6 +121,7 @@ double DistanceField::max_error() const { return 0.5 * std::sqrt(3.0) * h_ + sla
 
 std::size_t DistanceField::nbytes() const {
   return sizeof(*this) + brick_slot_.capacity() * sizeof(std::int32_t) + centre_value_.capacity() * sizeof(double) +
+         centre_point_.capacity() * sizeof(float) +
          brick_nodes_.capacity() * sizeof(float);
 }
 
@@ -159,6 +168,11 @@ FieldSample DistanceField::sample(const Eigen::Vector3d& p) const {
     s.value = centre_value_[b];
     s.lower = s.value - r;
     s.upper = s.value + r;
+    // The centre's closest surface point is a surface point: |f(p)| <= |p - point|.
+    const float* q = centre_point_.data() + 3 * b;
+    const double u = (p - origin_ - Eigen::Vector3d(q[0], q[1], q[2])).norm() + slack_;
+    s.lower = std::max(s.lower, signed_ ? -u : 0.0);
+    s.upper = std::min(s.upper, u);
     return s;
   }
   double t[3];

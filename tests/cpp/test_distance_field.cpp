@@ -130,6 +130,21 @@ TEST(DistanceField, ExactOnAPlaneFaceAndBoundedFarAway) {
   const FieldSample d = f.sample({0.001, 0.002, 0.003});
   EXPECT_FALSE(d.in_band);
   EXPECT_LT(d.upper, -f.band());
+  // Deep under the middle of the top face (15..35 mm down, nearer to it than to any other face):
+  // the bound by the brick centre's closest surface point, on the same face, leaves the depth
+  // no more than sqrt(15^2 + 2.83^2) - 15 = 0.27 mm over the exact one (2.83 mm: a 4 mm brick's
+  // half diagonal across the face), where the centre's distance alone left up to 6.9 mm.
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int i = 0; i < 200; ++i) {
+    const Vector3d p(-0.01 + 0.02 * u(rng), -0.01 + 0.02 * u(rng), 0.015 + 0.02 * u(rng));
+    const FieldSample s = f.sample(p);
+    const double exact = p.z() - 0.05;
+    ASSERT_FALSE(s.in_band);
+    ASSERT_LE(s.lower, exact);
+    ASSERT_GE(s.upper, exact);
+    ASSERT_LE(-s.lower, -exact + 0.00027) << p.transpose();
+  }
   // Beyond the grid: at least the distance to the box.
   const FieldSample far = f.sample({0.5, 0.0, 0.0});
   EXPECT_NEAR(far.lower, 0.45, 1e-12);

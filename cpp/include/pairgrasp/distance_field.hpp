@@ -14,6 +14,9 @@
 ///
 /// Outside the stored bricks the distance is bounded from the brick's centre (exact there):
 /// |f(p) − f(c)| <= |p − c|, and such points are known to lie beyond the band (in magnitude).
+/// The centre's closest surface point s_c bounds the magnitude too: |f(p)| <= |p − s_c| (the
+/// distance to any surface point), close to |f(p)| where the surface is smooth, so that a depth
+/// deep inside is bounded from above within a fraction of a millimetre of its exact value.
 /// Beyond the grid the mesh's bounding box gives a lower bound (outside, no upper bound).
 ///
 /// Built once (the nodes in parallel, results independent of the thread count), then queried
@@ -70,7 +73,7 @@ class DistanceField {
   double band() const { return band_; }
   /// Largest error (m) of a value in the band: (√3/2)·h plus rounding.
   double max_error() const;
-  /// Bytes held by the grid (nodes, brick table, centres).
+  /// Bytes held by the grid (nodes, brick table, centres' values and closest points).
   std::size_t nbytes() const;
   /// Seconds spent building.
   double build_seconds() const { return build_seconds_; }
@@ -97,6 +100,7 @@ class DistanceField {
   Eigen::AlignedBox3d mesh_box_;
   std::vector<std::int32_t> brick_slot_;  // per brick: index into the stored bricks, -1 when not stored
   std::vector<double> centre_value_;      // per brick: exact distance at its centre
+  std::vector<float> centre_point_;       // per brick: the centre's closest surface point - origin_ (x, y, z)
   std::vector<float> brick_nodes_;        // kNodes values per stored brick, x fastest
 
   std::int64_t brick_index(int bx, int by, int bz) const {
