@@ -99,8 +99,10 @@ SphereTree make_sphere_tree(const Mesh& mesh, const std::vector<int>& faces, dou
       for (std::int32_t k = range[n].first; k < range[n].second; ++k)
         for (const Vec3& v : ps[tree.order[k]]) r2 = std::max(r2, (v - node.centre).squaredNorm());
       node.radius = std::sqrt(r2) * (1.0 + 1e-12) + 1e-15;
-      const Tri& first = ps[tree.order[range[n].first]];
-      node.rep = (first[0] + first[1] + first[2]) / 3.0;
+      // The middle piece: a left child's first piece is its parent's, so first pieces would repeat
+      // down the left spine; middle ones spread over the surface level by level.
+      const Tri& mid = ps[tree.order[range[n].first + (range[n].second - range[n].first) / 2]];
+      node.rep = (mid[0] + mid[1] + mid[2]) / 3.0;
       node.left = b.count > 0 ? -1 : base + b.first;
     }
   }
