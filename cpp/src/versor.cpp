@@ -74,15 +74,22 @@ bool axis_rotation(const std::array<Pairing, 3>& p, unsigned mask, const Vector3
 }
 
 // Satisfied: |R.A - B| <= chord (the chord of the angle tolerance on the unit sphere); the
-// residual angle is 2 asin(|R.A - B| / 2).
-void score(const std::array<Pairing, 3>& p, double chord, Hyp& h) {
+// residual angle is 2 asin(|R.A - B| / 2). `all`: only a rotation satisfying every valid pairing
+// matters, so the first failing one ends the scoring (s = 0).
+void score(const std::array<Pairing, 3>& p, double chord, Hyp& h, bool all = false) {
   h.s = 0;
   h.mask = 0;
+  h.rms = 0.0;
   double sum = 0.0;
   const Eigen::Matrix3d r = h.q.toRotationMatrix();
   for (int k = 0; k < 3; ++k) {
     if (!p[k].valid) continue;
     const double c2 = (r * p[k].a - p[k].b).squaredNorm();
+    if (all && c2 > chord * chord) {
+      h.s = 0;
+      h.mask = 0;
+      return;
+    }
     if (c2 <= chord * chord) {
       ++h.s;
       h.mask |= 1u << k;
@@ -109,12 +116,12 @@ struct HypSet {
   std::array<Hyp, kMaxHyp> h;
   int n = 0;
   // Adds and scores q; returns the hypothesis or nullptr when full.
-  const Hyp* add(const Quaterniond& q, const std::array<Pairing, 3>& p, double chord) {
+  const Hyp* add(const Quaterniond& q, const std::array<Pairing, 3>& p, double chord, bool all) {
     if (n >= kMaxHyp) return nullptr;
     Hyp& x = h[n++];
     x.q = q;
     if (x.q.w() < 0) x.q.coeffs() = -x.q.coeffs();
-    score(p, chord, x);
+    score(p, chord, x, all);
     return &x;
   }
 };
@@ -137,20 +144,22 @@ int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_c
       for (int j = i + 1; j < 3; ++j)
         if (p[i].valid && p[j].valid && std::abs(p[i].a.dot(p[j].a) - p[i].b.dot(p[j].b)) > 2.0 * chord) return 0;
   }
-  HypSet set;
   int nvalid = 0;
+  for (int k = 0; k < 3; ++k) nvalid += p[k].valid;
+  if (nvalid < min_s) return 0;  // a hypothesis satisfies at most the valid pairings
+  const bool need_all = min_s >= nvalid;  // only rotations satisfying every valid pairing count
+  HypSet set;
   std::array<Vector3d, 3> d;
   std::array<double, 3> dn{};
   bool all_small = true;
   for (int k = 0; k < 3; ++k) {
     if (!p[k].valid) continue;
-    ++nvalid;
     d[k] = p[k].a - p[k].b;
     dn[k] = d[k].norm();
     if (dn[k] > chord) all_small = false;
   }
   // All differences ~ 0: the identity.
-  if (all_small) set.add(Quaterniond::Identity(), p, chord);
+  if (all_small) set.add(Quaterniond::Identity(), p, chord, need_all);
   // Meetings of two great circles (eq. 17), best conditioned first; the angle comes from both
   // pairings. Once a meeting's rotation satisfies every pairing, the other meetings can only
   // give that rotation again, so they are not computed.
@@ -177,10 +186,21 @@ int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_c
     }
   for (int a = 1; a < nm; ++a)  // at most three: insertion sort, best conditioned first
     for (int b = a; b > 0 && meet[b].sine > meet[b - 1].sine; --b) std::swap(meet[b], meet[b - 1]);
+  // A rotation about the unit axis m keeps every vector's component along m, so its residual
+  // R.A_t - B_t has the component m.(A_t - B_t) whatever the angle: a chord beyond it rules the
+  // axis out for pairing t. When every valid pairing must be satisfied (min_s >= nvalid), a
+  // hypothesis with such an axis never reaches the output, and is not computed. (The margin keeps
+  // the rounding of the rotation's own residual on the side of computing it.)
+  auto axis_fails = [&](const Vector3d& m, double mn) {
+    for (int t = 0; t < 3; ++t)
+      if (p[t].valid && std::abs(m.dot(d[t])) > (chord * (1.0 + 1e-9) + 1e-12) * mn) return true;
+    return false;
+  };
   for (int k = 0; k < nm; ++k) {
+    if (need_all && axis_fails(meet[k].c, meet[k].cn)) continue;
     Quaterniond q;
     if (!axis_rotation(p, (1u << meet[k].i) | (1u << meet[k].j), meet[k].c / meet[k].cn, q)) continue;
-    const Hyp* h = set.add(q, p, chord);
+    const Hyp* h = set.add(q, p, chord, need_all);
     if (h && h->s == nvalid) break;
   }
   // A_k = B_k: the axis is +-A_k (the bisector when they differ within tolerance), the angle
@@ -188,10 +208,11 @@ int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_c
   for (int k = 0; k < 3; ++k) {
     if (!p[k].valid || dn[k] > chord) continue;
     const Vector3d m = (p[k].a + p[k].b).normalized();
+    if (need_all && axis_fails(m, 1.0)) continue;
     for (int j = 0; j < 3; ++j) {
       if (j == k || !p[j].valid) continue;
       Quaterniond q;
-      if (axis_rotation(p, 1u << j, m, q)) set.add(q, p, chord);
+      if (axis_rotation(p, 1u << j, m, q)) set.add(q, p, chord, need_all);
     }
   }
   // TRIAD fallback when no meeting is well conditioned (every difference parallel: the axis lies
@@ -204,7 +225,7 @@ int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_c
         if (p[i].a.cross(p[j].a).norm() <= sin_collinear || p[i].b.cross(p[j].b).norm() <= sin_collinear)
           continue;
         Quaterniond q(triad(p[i].b, p[j].b) * triad(p[i].a, p[j].a).transpose());
-        set.add(q.normalized(), p, chord);
+        set.add(q.normalized(), p, chord, need_all);
       }
   }
   // Best first; drop repeats of a kept rotation; polish the kept ones (least-squares angle about
@@ -226,7 +247,7 @@ int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_c
     Hyp polished;
     if (!axis_rotation(p, o.mask, v / vn, polished.q)) continue;
     if (polished.q.w() < 0) polished.q.coeffs() = -polished.q.coeffs();
-    score(p, chord, polished);
+    score(p, chord, polished, need_all);
     if (polished.s >= o.s && polished.rms <= o.rms) o = polished;
   }
   return nout;
