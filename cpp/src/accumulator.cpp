@@ -71,9 +71,13 @@ HashedBins<D>::HashedBins(std::size_t capacity, std::size_t expected_entries) : 
 
 template <int D>
 std::size_t HashedBins<D>::slot_of(const Cell& cell) const {
-  std::uint64_t h = 0x243f6a8885a308d3ull;
-  for (int k = 0; k < D; ++k) h = mix(h ^ static_cast<std::uint32_t>(cell[k]));
-  return static_cast<std::size_t>(h) & mask_;
+  // One multiply per coordinate (odd constants), then one finalising round: the slot only sets
+  // where probing starts, never which bin a cell gets.
+  static constexpr std::uint64_t kOdd[4] = {0x9e3779b97f4a7c15ull, 0xc2b2ae3d27d4eb4full, 0x165667b19e3779f9ull,
+                                            0xd6e8feb86659fd93ull};
+  std::uint64_t h = 0;
+  for (int k = 0; k < D; ++k) h += static_cast<std::uint64_t>(static_cast<std::uint32_t>(cell[k])) * kOdd[k];
+  return static_cast<std::size_t>(mix(h)) & mask_;
 }
 
 template <int D>
