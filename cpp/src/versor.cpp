@@ -76,10 +76,19 @@ bool axis_rotation(const std::array<Pairing, 3>& p, unsigned mask, const Vector3
 // Satisfied: |R.A - B| <= chord (the chord of the angle tolerance on the unit sphere); the
 // residual angle is 2 asin(|R.A - B| / 2). `all`: only a rotation satisfying every valid pairing
 // matters, so the first failing one ends the scoring (s = 0).
-void score(const std::array<Pairing, 3>& p, double chord, Hyp& h, bool all = false) {
+void score(const std::array<Pairing, 3>& p, double chord, Hyp& h, bool all = false, int first = -1) {
   h.s = 0;
   h.mask = 0;
   h.rms = 0.0;
+  if (all && first >= 0 && p[first].valid) {
+    // The pairing most likely to fail, through the quaternion directly (no matrix); the margin
+    // leaves any case its rounding could decide to the test below.
+    const Vector3d& a = p[first].a;
+    const Vector3d u = h.q.vec();
+    const Vector3d t = 2.0 * u.cross(a);
+    const Vector3d ra = a + h.q.w() * t + u.cross(t);
+    if ((ra - p[first].b).squaredNorm() > chord * chord * (1.0 + 1e-9) + 1e-15) return;
+  }
   double sum = 0.0;
   const Eigen::Matrix3d r = h.q.toRotationMatrix();
   for (int k = 0; k < 3; ++k) {
@@ -116,12 +125,12 @@ struct HypSet {
   std::array<Hyp, kMaxHyp> h;
   int n = 0;
   // Adds and scores q; returns the hypothesis or nullptr when full.
-  const Hyp* add(const Quaterniond& q, const std::array<Pairing, 3>& p, double chord, bool all) {
+  const Hyp* add(const Quaterniond& q, const std::array<Pairing, 3>& p, double chord, bool all, int first = -1) {
     if (n >= kMaxHyp) return nullptr;
     Hyp& x = h[n++];
     x.q = q;
     if (x.q.w() < 0) x.q.coeffs() = -x.q.coeffs();
-    score(p, chord, x, all);
+    score(p, chord, x, all, first);
     return &x;
   }
 };
@@ -200,7 +209,8 @@ int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_c
     if (need_all && axis_fails(meet[k].c, meet[k].cn)) continue;
     Quaterniond q;
     if (!axis_rotation(p, (1u << meet[k].i) | (1u << meet[k].j), meet[k].c / meet[k].cn, q)) continue;
-    const Hyp* h = set.add(q, p, chord, need_all);
+    // Its angle comes from pairings i and j: the third is the one to fail.
+    const Hyp* h = set.add(q, p, chord, need_all, 3 - meet[k].i - meet[k].j);
     if (h && h->s == nvalid) break;
   }
   // A_k = B_k: the axis is +-A_k (the bisector when they differ within tolerance), the angle
