@@ -76,19 +76,10 @@ bool axis_rotation(const std::array<Pairing, 3>& p, unsigned mask, const Vector3
 // Satisfied: |R.A - B| <= chord (the chord of the angle tolerance on the unit sphere); the
 // residual angle is 2 asin(|R.A - B| / 2). `all`: only a rotation satisfying every valid pairing
 // matters, so the first failing one ends the scoring (s = 0).
-void score(const std::array<Pairing, 3>& p, double chord, Hyp& h, bool all = false, int first = -1) {
+void score(const std::array<Pairing, 3>& p, double chord, Hyp& h, bool all = false) {
   h.s = 0;
   h.mask = 0;
   h.rms = 0.0;
-  if (all && first >= 0 && p[first].valid) {
-    // The pairing most likely to fail, through the quaternion directly (no matrix); the margin
-    // leaves any case its rounding could decide to the test below.
-    const Vector3d& a = p[first].a;
-    const Vector3d u = h.q.vec();
-    const Vector3d t = 2.0 * u.cross(a);
-    const Vector3d ra = a + h.q.w() * t + u.cross(t);
-    if ((ra - p[first].b).squaredNorm() > chord * chord * (1.0 + 1e-9) + 1e-15) return;
-  }
   double sum = 0.0;
   const Eigen::Matrix3d r = h.q.toRotationMatrix();
   for (int k = 0; k < 3; ++k) {
@@ -125,12 +116,12 @@ struct HypSet {
   std::array<Hyp, kMaxHyp> h;
   int n = 0;
   // Adds and scores q; returns the hypothesis or nullptr when full.
-  const Hyp* add(const Quaterniond& q, const std::array<Pairing, 3>& p, double chord, bool all, int first = -1) {
+  const Hyp* add(const Quaterniond& q, const std::array<Pairing, 3>& p, double chord, bool all) {
     if (n >= kMaxHyp) return nullptr;
     Hyp& x = h[n++];
     x.q = q;
     if (x.q.w() < 0) x.q.coeffs() = -x.q.coeffs();
-    score(p, chord, x, all, first);
+    score(p, chord, x, all);
     return &x;
   }
 };
@@ -205,12 +196,41 @@ int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_c
       if (p[t].valid && std::abs(m.dot(d[t])) > (chord * (1.0 + 1e-9) + 1e-12) * mn) return true;
     return false;
   };
+  // axis_rotation(p, mask, m) in closed form: with z_k = (A_k.B_k - (m.A_k)(m.B_k), m.(A_k x B_k))
+  // and Z the sum of z_k over the mask, its angle is arg Z, and pairing k's squared residual
+  // |R.A_k - B_k|^2 is |A_k|^2 + |B_k|^2 - 2 (m.A_k)(m.B_k) - 2 Re(z_k conj Z) / |Z|. A residual
+  // beyond the chord (with the margin above) rules the rotation out when every pairing must be
+  // satisfied.
+  auto rotation_fails = [&](const Vector3d& m, unsigned mask) {
+    std::array<double, 3> ma{}, mb{}, re{}, im{};
+    for (int k = 0; k < 3; ++k) {
+      if (!p[k].valid) continue;
+      ma[k] = m.dot(p[k].a);
+      mb[k] = m.dot(p[k].b);
+      re[k] = p[k].a.dot(p[k].b) - ma[k] * mb[k];
+      im[k] = m.dot(p[k].a.cross(p[k].b));
+    }
+    double zr = 0.0, zi = 0.0;
+    for (int k = 0; k < 3; ++k)
+      if (mask & (1u << k)) zr += re[k], zi += im[k];
+    const double zn = std::sqrt(zr * zr + zi * zi);
+    if (!(zn > 1e-14)) return false;  // axis_rotation decides
+    const double limit = chord * chord * (1.0 + 1e-9) + 1e-12;
+    for (int k = 0; k < 3; ++k) {
+      if (!p[k].valid) continue;
+      const double r2 = p[k].a.squaredNorm() + p[k].b.squaredNorm() - 2.0 * ma[k] * mb[k] -
+                        2.0 * (re[k] * zr + im[k] * zi) / zn;
+      if (r2 > limit) return true;
+    }
+    return false;
+  };
   for (int k = 0; k < nm; ++k) {
-    if (need_all && axis_fails(meet[k].c, meet[k].cn)) continue;
+    const Vector3d m = meet[k].c / meet[k].cn;
+    const unsigned mask = (1u << meet[k].i) | (1u << meet[k].j);
+    if (need_all && (axis_fails(meet[k].c, meet[k].cn) || rotation_fails(m, mask))) continue;
     Quaterniond q;
-    if (!axis_rotation(p, (1u << meet[k].i) | (1u << meet[k].j), meet[k].c / meet[k].cn, q)) continue;
-    // Its angle comes from pairings i and j: the third is the one to fail.
-    const Hyp* h = set.add(q, p, chord, need_all, 3 - meet[k].i - meet[k].j);
+    if (!axis_rotation(p, mask, m, q)) continue;
+    const Hyp* h = set.add(q, p, chord, need_all);
     if (h && h->s == nvalid) break;
   }
   // A_k = B_k: the axis is +-A_k (the bisector when they differ within tolerance), the angle
@@ -220,7 +240,7 @@ int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_c
     const Vector3d m = (p[k].a + p[k].b).normalized();
     if (need_all && axis_fails(m, 1.0)) continue;
     for (int j = 0; j < 3; ++j) {
-      if (j == k || !p[j].valid) continue;
+      if (j == k || !p[j].valid || (need_all && rotation_fails(m, 1u << j))) continue;
       Quaterniond q;
       if (axis_rotation(p, 1u << j, m, q)) set.add(q, p, chord, need_all);
     }
