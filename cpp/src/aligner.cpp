@@ -155,11 +155,12 @@ Vector3d target_mid(const Context& c, std::uint32_t target_pair) {
   return 0.5 * (tp.row(pairs(target_pair, 0)).transpose() + tp.row(pairs(target_pair, 1)).transpose());
 }
 
-// Turns the votes of one (rotation, position) cluster into a pose. `seed` is the rotation
-// cluster's mean; returns false when fewer than min_votes remain.
+// Turns the votes of one (rotation, position) cluster into a pose (without its contacts; see
+// add_contacts). `seed` is the rotation cluster's mean; returns false when fewer than min_votes
+// remain. `kept`: the votes that support the pose.
 bool make_pose(const Context& c, const std::vector<GripperPair>& gpairs, const std::vector<Correspondence>& corr,
                const std::vector<Vote>& votes, const std::vector<std::uint32_t>& members, const Quaterniond& seed,
-               AlignedPose& pose) {
+               AlignedPose& pose, std::vector<std::uint32_t>& kept) {
   const double tau = c.opt.angle_tolerance;
   // Weighted mean quaternion, signs aligned to the seed; once more without the outliers.
   auto mean_of = [&](const Quaterniond& ref, const std::vector<std::uint32_t>& which) {
@@ -174,7 +175,7 @@ bool make_pose(const Context& c, const std::vector<GripperPair>& gpairs, const s
     return m;
   };
   Quaterniond mean = mean_of(seed, members);
-  std::vector<std::uint32_t> kept;
+  kept.clear();
   kept.reserve(members.size());
   for (auto k : members)
     if (rotation_distance(vote_quaternion(votes[k]), mean) <= tau) kept.push_back(k);
@@ -196,9 +197,6 @@ bool make_pose(const Context& c, const std::vector<GripperPair>& gpairs, const s
   const Vector3d t = tsum / wsum;
 
   double pos2 = 0.0, ang2 = 0.0;
-  std::vector<std::pair<std::int32_t, std::int32_t>> contacts;
-  contacts.reserve(2 * kept.size());
-  const auto& pairs = c.index.pairs();
   for (auto k : kept) {
     const Vote& v = votes[k];
     const double w = v.agreement;
@@ -207,12 +205,7 @@ bool make_pose(const Context& c, const std::vector<GripperPair>& gpairs, const s
     pos2 += w * (target_mid(c, cr.target_pair) - R * gripper_mid(c, g) - t).squaredNorm();
     const double a = rotation_distance(vote_quaternion(v), mean);
     ang2 += w * a * a;
-    const std::int32_t i = pairs(cr.target_pair, 0), j = pairs(cr.target_pair, 1);
-    contacts.emplace_back(g.a, v.order == 0 ? i : j);
-    contacts.emplace_back(g.b, v.order == 0 ? j : i);
   }
-  std::sort(contacts.begin(), contacts.end());
-  contacts.erase(std::unique(contacts.begin(), contacts.end()), contacts.end());
 
   pose.rotation = R;
   pose.translation = t;
@@ -222,12 +215,31 @@ bool make_pose(const Context& c, const std::vector<GripperPair>& gpairs, const s
   pose.variance = pos2 / wsum / (c.h * c.h) + ang2 / wsum / (tau * tau);
   pose.quality = total_votes / (1.0 + pose.variance);
   pose.correspondences = static_cast<int>(kept.size());
+  return true;
+}
+
+// The matched contacts of a pose from the votes that support it: (gripper sample, target point)
+// of both pairings of each vote, deduplicated and sorted.
+void add_contacts(const Context& c, const std::vector<GripperPair>& gpairs, const std::vector<Correspondence>& corr,
+                  const std::vector<Vote>& votes, const std::vector<std::uint32_t>& kept, AlignedPose& pose) {
+  std::vector<std::pair<std::int32_t, std::int32_t>> contacts;
+  contacts.reserve(2 * kept.size());
+  const auto& pairs = c.index.pairs();
+  for (auto k : kept) {
+    const Vote& v = votes[k];
+    const Correspondence& cr = corr[v.corr];
+    const GripperPair& g = gpairs[cr.gripper_pair];
+    const std::int32_t i = pairs(cr.target_pair, 0), j = pairs(cr.target_pair, 1);
+    contacts.emplace_back(g.a, v.order == 0 ? i : j);
+    contacts.emplace_back(g.b, v.order == 0 ? j : i);
+  }
+  std::sort(contacts.begin(), contacts.end());
+  contacts.erase(std::unique(contacts.begin(), contacts.end()), contacts.end());
   pose.contacts.resize(static_cast<Eigen::Index>(contacts.size()), 2);
   for (std::size_t r = 0; r < contacts.size(); ++r) {
     pose.contacts(static_cast<Eigen::Index>(r), 0) = contacts[r].first;
     pose.contacts(static_cast<Eigen::Index>(r), 1) = contacts[r].second;
   }
-  return true;
 }
 
 AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const Points& gp, const Points& gn,
@@ -454,7 +466,11 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
 
   const double pcell = opt.position_tolerance;
   const Vector3d centroid = gp.colwise().mean().transpose();
-  std::vector<AlignedPose> poses;
+  struct Made {
+    AlignedPose pose;
+    std::vector<std::uint32_t> kept;  // its votes, for the contacts of the poses returned
+  };
+  std::vector<Made> poses;
   for (std::size_t c = 0; c < rclusters.size(); ++c) {
     Quaterniond qc;
     qc.coeffs() = rclusters[c].mean;
@@ -483,24 +499,27 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
     for (std::size_t m = 0; m < members[c].size(); ++m)
       if (pslot[m] >= 0 && pcluster_of[pslot[m]] >= 0) pmembers[pcluster_of[pslot[m]]].push_back(members[c][m]);
     for (std::size_t p = 0; p < pclusters.size(); ++p) {
-      AlignedPose pose;
-      if (make_pose(ctx, gpairs, corr, votes, pmembers[p], qc, pose)) poses.push_back(std::move(pose));
+      Made m;
+      if (make_pose(ctx, gpairs, corr, votes, pmembers[p], qc, m.pose, m.kept)) poses.push_back(std::move(m));
     }
   }
 
   // Best first; a pose within both tolerances of a better one repeats it and is dropped.
-  std::stable_sort(poses.begin(), poses.end(), [](const AlignedPose& x, const AlignedPose& y) {
-    if (x.quality != y.quality) return x.quality > y.quality;
-    return x.votes > y.votes;
+  std::stable_sort(poses.begin(), poses.end(), [](const Made& x, const Made& y) {
+    if (x.pose.quality != y.pose.quality) return x.pose.quality > y.pose.quality;
+    return x.pose.votes > y.pose.votes;
   });
-  for (auto& p : poses) {
+  for (auto& m : poses) {
     if (static_cast<int>(result.poses.size()) >= opt.max_poses) break;
+    const AlignedPose& p = m.pose;
     const Quaterniond qp(p.rotation);
     bool repeat = false;
     for (const auto& k : result.poses)
       repeat = repeat || (rotation_distance(Quaterniond(k.rotation), qp) <= tau &&
                           (k.translation - p.translation).norm() <= opt.position_tolerance);
-    if (!repeat) result.poses.push_back(std::move(p));
+    if (repeat) continue;
+    add_contacts(ctx, gpairs, corr, votes, m.kept, m.pose);
+    result.poses.push_back(std::move(m.pose));
   }
   result.times.positions = ms_since(clock);
   return result;
