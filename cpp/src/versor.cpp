@@ -28,11 +28,14 @@ struct Pairing {
   bool valid = false;
 };
 
+// No default member values: the solver's arrays of them (64 per call) are written before they
+// are read (add() and score() set every field), and zeroing them cost more than a rejected
+// correspondence's own arithmetic.
 struct Hyp {
-  Quaterniond q;        // w >= 0
-  int s = 0;            // satisfied pairings
-  unsigned mask = 0;    // which
-  double rms = 0.0;     // rms angle over satisfied pairings
+  Quaterniond q;  // w >= 0
+  int s;          // satisfied pairings
+  unsigned mask;  // which
+  double rms;     // rms angle over satisfied pairings
 };
 
 Quaterniond from_axis_angle(const Vector3d& m, double theta) {
