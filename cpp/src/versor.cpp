@@ -303,6 +303,17 @@ double max_cross(const Vector3d& x, const Vector3d& y, const Vector3d* u) {
   return s;
 }
 
+// max_cross(x, y, u) <= s, decided on the squared norms (no square roots) unless they lie within
+// rounding of s^2, where max_cross itself decides.
+bool within_cross(const Vector3d& x, const Vector3d& y, const Vector3d* u, double s) {
+  double m2 = x.cross(y).squaredNorm();
+  if (u) m2 = std::max({m2, x.cross(*u).squaredNorm(), y.cross(*u).squaredNorm()});
+  const double s2 = s * s;
+  if (m2 > s2 * (1.0 + 1e-9)) return false;
+  if (m2 < s2 * (1.0 - 1e-9)) return true;
+  return max_cross(x, y, u) <= s;
+}
+
 struct Ranked {
   Hyp h;
   int order;
@@ -443,8 +454,8 @@ int solve_versors(const Vector3d& gp0, const Vector3d& gp1, const Vector3d& gn0,
 
   // Collinear side (antipodal pair, or coincident points with parallel normals): roll is free.
   const double sin_collinear = settings.sin_collinear;
-  if (max_cross(a0, a1, has_u ? &ug : nullptr) <= sin_collinear ||
-      max_cross(tn0, tn1, has_u ? &ut : nullptr) <= sin_collinear)
+  if (within_cross(a0, a1, has_u ? &ug : nullptr, sin_collinear) ||
+      within_cross(tn0, tn1, has_u ? &ut : nullptr, sin_collinear))
     return 1;
 
   std::array<Ranked, 2 * kMaxHyp> ranked;
