@@ -80,12 +80,22 @@ std::size_t HashedBins<D>::slot_of(const Cell& cell) const {
   return static_cast<std::size_t>(mix(h)) & mask_;
 }
 
+namespace {
+// Cells compared coordinate by coordinate (std::array's == goes through memcmp).
+template <int D>
+bool same_cell(const std::array<std::int32_t, D>& a, const std::array<std::int32_t, D>& b) {
+  bool same = true;
+  for (int k = 0; k < D; ++k) same = same && a[k] == b[k];
+  return same;
+}
+}  // namespace
+
 template <int D>
 std::int32_t HashedBins<D>::find(const Cell& cell) const {
   for (std::size_t s = slot_of(cell);; s = (s + 1) & mask_) {
     const std::int32_t b = table_[s];
     if (b < 0) return -1;
-    if (bins_[b].cell == cell) return b;
+    if (same_cell<D>(bins_[b].cell, cell)) return b;
   }
 }
 
@@ -95,7 +105,7 @@ std::int32_t HashedBins<D>::add(const Cell& cell, const Value& value, double wei
   for (;; s = (s + 1) & mask_) {
     const std::int32_t b = table_[s];
     if (b < 0) break;
-    if (bins_[b].cell == cell) {
+    if (same_cell<D>(bins_[b].cell, cell)) {
       Bin& bin = bins_[b];
       bin.weight += weight;
       bin.sum += weight * value;
