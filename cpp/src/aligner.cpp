@@ -322,6 +322,9 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
     return prefilter_verdict(pf, gangles[g], tfeat + 3 * std::size_t(t), tgeom + 4 * std::size_t(t));
   };
   std::vector<std::size_t> g_under(gpairs.size(), 0), g_none(gpairs.size(), 0);
+  // A survivor's orders travel in the two low bits of its id (ids below 2^30), which keeps the
+  // sort by id and spares the verdict's second evaluation.
+  const bool packed = pf.on && stride == 1 && index.size() < (std::size_t(1) << 30);
   detail::parallel_for(gpairs.size(), threads, [&](std::size_t g) {
     auto& h = hits[g];
     if (pf.on && stride == 1 && gangles[g].usable) {
@@ -329,7 +332,7 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
       for (std::size_t k = 0; k < h.size(); ++k) {
         const std::uint8_t v = verdict(g, h[k]);
         if (v & kOrders)
-          h[keep++] = h[k];
+          h[keep++] = packed ? (h[k] << 2 | (v & kOrders)) : h[k];
         else if (v == kUnderdetermined)
           ++g_under[g];
         else
@@ -351,7 +354,10 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
       for (auto t : hits[g]) {
         if (k++ % stride != 0) continue;
         std::uint8_t v = kSolve;
-        if (filter) {  // without thinning, hits[g] holds only survivors: v gives their orders
+        if (filter && packed) {  // a survivor with its orders
+          v = static_cast<std::uint8_t>(t & kOrders);
+          t >>= 2;
+        } else if (filter) {  // without thinning, hits[g] holds only survivors: v gives their orders
           v = verdict(g, t);
           if (!(v & kOrders)) {
             ++(v == kUnderdetermined ? st.underdetermined : st.no_agreement);
