@@ -477,7 +477,13 @@ Mesh build_mesh(Points vertices, Triangles faces, std::string source, const Mesh
     volume_moment += d * (a + b + c);  // (d/6) * (a+b+c)/4 per tetrahedron, scaled by 24
   }
   mesh.area = area;
-  if (mesh.closed && volume6 != 0.0) {
+  // A closed surface that encloses no volume (flat, or whose parts' volumes cancel; with
+  // orientation, also one left inside out) has no inside: it counts as open. "No volume" is
+  // within the rounding of the signed sum, 1e-12 of the box diagonal cubed.
+  const double diagonal = mesh.bounds.diagonal().norm();
+  const double no_volume = 6e-12 * diagonal * diagonal * diagonal;
+  if (mesh.closed && (options.orient ? !(volume6 > no_volume) : !(std::abs(volume6) > no_volume))) mesh.closed = false;
+  if (mesh.closed) {
     mesh.volume = volume6 / 6.0;
     mesh.center_of_mass = o + volume_moment / (4.0 * volume6);
   } else {

@@ -584,6 +584,26 @@ TEST(MeshOrientation, InsideOutCubeIsFlippedOutward) {
   EXPECT_NEAR(raw.volume, -0.05 * 0.05 * 0.05, 1e-12);  // signed, as authored
 }
 
+TEST(MeshOrientation, FlatClosedSurfaceHasNoInside) {
+  // A square covered twice, each side triangulated along a different diagonal: every edge is
+  // shared by two faces traversing it in opposite directions, but the surface encloses nothing
+  // (found by fuzzing the COLLADA reader: a closed mesh of volume 0).
+  Points v(4, 3);
+  v << 0, 0, 0, 0.1, 0, 0, 0.1, 0.1, 0, 0, 0.1, 0;
+  Triangles f(4, 3);
+  f << 0, 1, 2, 0, 2, 3, 1, 0, 3, 1, 3, 2;
+  for (bool orient : {true, false}) {
+    MeshLoadOptions o;
+    o.orient = orient;
+    const Mesh m = make_mesh(v, f, "pillow", o);
+    EXPECT_EQ(m.boundary_edges, 0);
+    EXPECT_EQ(m.non_manifold_edges, 0);
+    EXPECT_FALSE(m.closed);
+    EXPECT_EQ(m.volume, 0.0);
+    EXPECT_NEAR(m.area, 0.02, 1e-15);
+  }
+}
+
 TEST(MeshOrientation, CavityPointsInwardAndDisjointShellsOutward) {
   // Hollow box: outer 1 m cube, inner 0.5 m cube inside it. Whatever the source winding, the
   // inner wall ends up facing the cavity and the volume is 1 - 0.125.

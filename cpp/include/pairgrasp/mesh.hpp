@@ -40,7 +40,9 @@ struct Mesh {
   Triangles faces;     ///< (F,3) indices into vertices, counter-clockwise seen from outside
   std::string source;  ///< file it was loaded from, or a name given by the caller
 
-  /// Every edge is shared by exactly two faces that traverse it in opposite directions.
+  /// Every edge is shared by exactly two faces that traverse it in opposite directions, and the
+  /// surface encloses a volume (a closed surface that is flat, or whose parts' volumes cancel,
+  /// has no inside and counts as open).
   bool closed = false;
   double area = 0.0;              ///< total surface area, m^2
   /// Enclosed volume, m^3: 0 when not closed; signed by the winding, so negative only for an
