@@ -204,25 +204,31 @@ int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_c
   // |R.A_k - B_k|^2 is |A_k|^2 + |B_k|^2 - 2 (m.A_k)(m.B_k) - 2 Re(z_k conj Z) / |Z|. A residual
   // beyond the chord (with the margin above) rules the rotation out when every pairing must be
   // satisfied.
-  auto rotation_fails = [&](const Vector3d& m, unsigned mask) {
+  struct AxisTerms {
     std::array<double, 3> ma{}, mb{}, re{}, im{};
+  };
+  auto axis_terms = [&](const Vector3d& m) {
+    AxisTerms t;
     for (int k = 0; k < 3; ++k) {
       if (!p[k].valid) continue;
-      ma[k] = m.dot(p[k].a);
-      mb[k] = m.dot(p[k].b);
-      re[k] = p[k].a.dot(p[k].b) - ma[k] * mb[k];
-      im[k] = m.dot(p[k].a.cross(p[k].b));
+      t.ma[k] = m.dot(p[k].a);
+      t.mb[k] = m.dot(p[k].b);
+      t.re[k] = p[k].a.dot(p[k].b) - t.ma[k] * t.mb[k];
+      t.im[k] = m.dot(p[k].a.cross(p[k].b));
     }
+    return t;
+  };
+  auto rotation_fails = [&](const AxisTerms& t, unsigned mask) {
     double zr = 0.0, zi = 0.0;
     for (int k = 0; k < 3; ++k)
-      if (mask & (1u << k)) zr += re[k], zi += im[k];
+      if (mask & (1u << k)) zr += t.re[k], zi += t.im[k];
     const double zn = std::sqrt(zr * zr + zi * zi);
     if (!(zn > 1e-14)) return false;  // axis_rotation decides
     const double limit = chord * chord * (1.0 + 1e-9) + 1e-12;
     for (int k = 0; k < 3; ++k) {
       if (!p[k].valid) continue;
-      const double r2 = p[k].a.squaredNorm() + p[k].b.squaredNorm() - 2.0 * ma[k] * mb[k] -
-                        2.0 * (re[k] * zr + im[k] * zi) / zn;
+      const double r2 = p[k].a.squaredNorm() + p[k].b.squaredNorm() - 2.0 * t.ma[k] * t.mb[k] -
+                        2.0 * (t.re[k] * zr + t.im[k] * zi) / zn;
       if (r2 > limit) return true;
     }
     return false;
@@ -230,7 +236,7 @@ int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_c
   for (int k = 0; k < nm; ++k) {
     const Vector3d m = meet[k].c / meet[k].cn;
     const unsigned mask = (1u << meet[k].i) | (1u << meet[k].j);
-    if (need_all && (axis_fails(meet[k].c, meet[k].cn) || rotation_fails(m, mask))) continue;
+    if (need_all && (axis_fails(meet[k].c, meet[k].cn) || rotation_fails(axis_terms(m), mask))) continue;
     Quaterniond q;
     if (!axis_rotation(p, mask, m, q)) continue;
     const Hyp* h = set.add(q, p, chord, need_all);
@@ -242,8 +248,9 @@ int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_c
     if (!p[k].valid || dn[k] > chord) continue;
     const Vector3d m = (p[k].a + p[k].b).normalized();
     if (need_all && axis_fails(m, 1.0)) continue;
+    const AxisTerms terms = need_all ? axis_terms(m) : AxisTerms();  // the same axis for every j
     for (int j = 0; j < 3; ++j) {
-      if (j == k || !p[j].valid || (need_all && rotation_fails(m, 1u << j))) continue;
+      if (j == k || !p[j].valid || (need_all && rotation_fails(terms, 1u << j))) continue;
       Quaterniond q;
       if (axis_rotation(p, 1u << j, m, q)) set.add(q, p, chord, need_all);
     }
