@@ -209,8 +209,8 @@ The pairs are counted before anything is stored: over `max_pairs` raises ValueEr
           "feature"_a, "tolerance"_a, R"doc(
 Indices (int64, into `pairs`) of every stored pair with |features[k] - feature| <= tolerance on
 each of the 3 components, compared in double on the stored float32 values: exactly the set a
-brute-force scan `np.all(np.abs(features - feature) <= tolerance, axis=1)` gives, in no
-particular order.)doc")
+brute-force scan `np.all(np.abs(features - feature) <= tolerance, axis=1)` gives, in increasing
+order (as np.flatnonzero of that mask).)doc")
       .def(
           "count",
           [](const PairIndex& s, const pyb::object& features, const pyb::object& tolerance) -> pyb::object {

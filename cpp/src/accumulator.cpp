@@ -28,17 +28,25 @@ bool cell_less(const std::array<std::int32_t, D>& a, const std::array<std::int32
   return std::lexicographical_compare(a.begin(), a.end(), b.begin(), b.end());
 }
 
-// Bin indices, strongest first, ties broken by the cell (deterministic).
-template <int D>
-std::vector<std::int32_t> strongest_first(const HashedBins<D>& bins) {
+// Visits the bin indices strongest first, ties broken by the cell (a strict total order, hence
+// deterministic), until `visit` returns false. Greedy clustering takes its seeds from the top of
+// that order and usually stops long before the end, so the order is sorted in stages: the first
+// `first` bins, then (only if needed) the rest, which gives the same sequence as one full sort.
+template <int D, class Visit>
+void strongest_first(const HashedBins<D>& bins, std::size_t first, Visit&& visit) {
   std::vector<std::int32_t> order(bins.bins().size());
   std::iota(order.begin(), order.end(), 0);
   const auto& b = bins.bins();
-  std::sort(order.begin(), order.end(), [&](std::int32_t x, std::int32_t y) {
+  auto stronger = [&](std::int32_t x, std::int32_t y) {
     if (b[x].weight != b[y].weight) return b[x].weight > b[y].weight;
     return cell_less<D>(b[x].cell, b[y].cell);
-  });
-  return order;
+  };
+  const auto mid = order.begin() + static_cast<std::ptrdiff_t>(std::min(first, order.size()));
+  std::partial_sort(order.begin(), mid, order.end(), stronger);
+  for (auto it = order.begin(); it != order.end(); ++it) {
+    if (it == mid) std::sort(mid, order.end(), stronger);
+    if (!visit(*it)) return;
+  }
 }
 
 // Calls f(neighbour cell) for the 3^D cells around `c` (including c).
@@ -160,9 +168,10 @@ std::vector<Cluster> rotation_clusters(const HashedBins<4>& bins, double cell, d
   std::vector<Cluster> out;
   // angle(q1, q2) <= radius  <=>  |q1 . q2| >= cos(radius / 2)
   const double min_dot = std::cos(0.5 * std::min(radius, 3.14159265358979323846));
-  for (std::int32_t seed : strongest_first(bins)) {
-    if (static_cast<int>(out.size()) >= max_clusters) break;
-    if (used[seed]) continue;
+  const std::size_t first = 4 * static_cast<std::size_t>(std::max(max_clusters, 1));
+  strongest_first(bins, first, [&](std::int32_t seed) {
+    if (static_cast<int>(out.size()) >= max_clusters) return false;
+    if (used[seed]) return true;
     const Eigen::Vector4d seed_mean = b[seed].sum.normalized();
     Cluster c;
     Eigen::Vector4d sum = Eigen::Vector4d::Zero();
@@ -184,7 +193,8 @@ std::vector<Cluster> rotation_clusters(const HashedBins<4>& bins, double cell, d
     if (anti.w() > -2.0 * cell) for_neighbours<4>(quaternion_cell(anti, cell), take);
     c.mean = sum.normalized();
     out.push_back(std::move(c));
-  }
+    return true;
+  });
   std::stable_sort(out.begin(), out.end(), [](const Cluster& x, const Cluster& y) { return x.weight > y.weight; });
   return out;
 }
@@ -193,9 +203,10 @@ std::vector<Cluster> position_clusters(const HashedBins<3>& bins, double /*cell*
   const auto& b = bins.bins();
   std::vector<char> used(b.size(), 0);
   std::vector<Cluster> out;
-  for (std::int32_t seed : strongest_first(bins)) {
-    if (static_cast<int>(out.size()) >= max_clusters) break;
-    if (used[seed]) continue;
+  const std::size_t first = 4 * static_cast<std::size_t>(std::max(max_clusters, 1));
+  strongest_first(bins, first, [&](std::int32_t seed) {
+    if (static_cast<int>(out.size()) >= max_clusters) return false;
+    if (used[seed]) return true;
     const Eigen::Vector3d seed_mean = b[seed].sum / b[seed].weight;
     Cluster c;
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -212,7 +223,8 @@ std::vector<Cluster> position_clusters(const HashedBins<3>& bins, double /*cell*
     for_neighbours<3>(b[seed].cell, take);
     c.mean.head<3>() = sum / c.weight;
     out.push_back(std::move(c));
-  }
+    return true;
+  });
   std::stable_sort(out.begin(), out.end(), [](const Cluster& x, const Cluster& y) { return x.weight > y.weight; });
   return out;
 }

@@ -314,8 +314,8 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
       st.correspondences > opt.max_correspondences
           ? (st.correspondences + opt.max_correspondences - 1) / opt.max_correspondences
           : 1;
-  // Verdicts per gripper pair; without thinning the rejected pairs leave the lists before the sort
-  // (the survivors keep their sorted order).
+  // Verdicts per gripper pair; without thinning the rejected pairs leave the lists, the survivors
+  // keeping query()'s increasing order.
   const float* tfeat = index.features().data();
   const std::int16_t* tgeom = index.pair_geometry().data();
   auto verdict = [&](std::size_t g, std::uint32_t t) {
@@ -323,7 +323,7 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
   };
   std::vector<std::size_t> g_under(gpairs.size(), 0), g_none(gpairs.size(), 0);
   // A survivor's orders travel in the two low bits of its id (ids below 2^30), which keeps the
-  // sort by id and spares the verdict's second evaluation.
+  // ids' order and spares the verdict's second evaluation.
   const bool packed = pf.on && stride == 1 && index.size() < (std::size_t(1) << 30);
   detail::parallel_for(gpairs.size(), threads, [&](std::size_t g) {
     auto& h = hits[g];
@@ -340,7 +340,7 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
       }
       h.resize(keep);
     }
-    std::sort(h.begin(), h.end());
+    // query() lists ids in increasing order; the survivors keep it (their orders ride below the id).
   });
   std::vector<Correspondence> corr;
   corr.reserve(st.correspondences / stride + 1);
@@ -476,8 +476,16 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
     AlignedPose pose;
     std::vector<std::uint32_t> kept;  // its votes, for the contacts of the poses returned
   };
-  std::vector<Made> poses;
-  for (std::size_t c = 0; c < rclusters.size(); ++c) {
+  // Each rotation cluster's position votes and poses are its own (parallel over the clusters);
+  // they are merged in cluster order, so the result does not depend on the thread count.
+  struct ClusterOut {
+    std::vector<Made> poses;
+    std::size_t position_votes = 0, dropped = 0, bins = 0;
+    bool saturated = false;
+  };
+  std::vector<ClusterOut> cluster_out(rclusters.size());
+  detail::parallel_for(rclusters.size(), threads, [&](std::size_t c) {
+    ClusterOut& co = cluster_out[c];
     Quaterniond qc;
     qc.coeffs() = rclusters[c].mean;
     detail::HashedBins<3> pbins(opt.position_capacity, members[c].size());
@@ -491,12 +499,12 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
       const Correspondence& cr = corr[v.corr];
       const Vector3d ct =
           target_mid(ctx, cr.target_pair) - vote_quaternion(v) * (gripper_mid(ctx, gpairs[cr.gripper_pair]) - centroid);
-      st.position_votes += v.agreement;
+      co.position_votes += v.agreement;
       pslot[m] = pbins.add(detail::position_cell(ct, pcell), ct, v.agreement);
     }
-    st.dropped_position_votes += static_cast<std::size_t>(std::lround(pbins.dropped_weight()));
-    st.position_bins = std::max(st.position_bins, pbins.bins().size());
-    if (pbins.saturated()) st.saturated = true;
+    co.dropped = static_cast<std::size_t>(std::lround(pbins.dropped_weight()));
+    co.bins = pbins.bins().size();
+    co.saturated = pbins.saturated();
     const auto pclusters = detail::position_clusters(pbins, pcell, opt.position_tolerance, opt.positions_per_rotation);
     std::vector<std::int32_t> pcluster_of(pbins.bins().size(), -1);
     for (std::size_t p = 0; p < pclusters.size(); ++p)
@@ -506,8 +514,16 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
       if (pslot[m] >= 0 && pcluster_of[pslot[m]] >= 0) pmembers[pcluster_of[pslot[m]]].push_back(members[c][m]);
     for (std::size_t p = 0; p < pclusters.size(); ++p) {
       Made m;
-      if (make_pose(ctx, gpairs, corr, votes, pmembers[p], qc, m.pose, m.kept)) poses.push_back(std::move(m));
+      if (make_pose(ctx, gpairs, corr, votes, pmembers[p], qc, m.pose, m.kept)) co.poses.push_back(std::move(m));
     }
+  });
+  std::vector<Made> poses;
+  for (ClusterOut& co : cluster_out) {
+    st.position_votes += co.position_votes;
+    st.dropped_position_votes += co.dropped;
+    st.position_bins = std::max(st.position_bins, co.bins);
+    if (co.saturated) st.saturated = true;
+    for (Made& m : co.poses) poses.push_back(std::move(m));
   }
 
   // Best first; a pose within both tolerances of a better one repeats it and is dropped.

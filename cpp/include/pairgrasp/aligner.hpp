@@ -55,7 +55,8 @@
 /// and the alignment quality is Q_A = votes / (1 + variance) (eq. 8), votes = sum_k w_k.
 ///
 /// Results are deterministic and independent of the thread count: work is split into fixed
-/// chunks whose results are merged in chunk order.
+/// chunks whose results are merged in chunk order (pass 3: one item per rotation cluster, merged
+/// in cluster order).
 #include <pairgrasp/hand.hpp>
 #include <pairgrasp/pair_index.hpp>
 #include <pairgrasp/types.hpp>

@@ -55,7 +55,7 @@ class PairIndex {
   /// the pose solve (see aligner.hpp).
   const Eigen::Matrix<std::int16_t, Eigen::Dynamic, 4, Eigen::RowMajor>& pair_geometry() const;
   /// Appends to `out` the index of every stored pair whose feature lies in the box
-  /// |feature_k - center_k| <= tolerance_k for k = 0, 1, 2, in no particular order. The test is
+  /// |feature_k - center_k| <= tolerance_k for k = 0, 1, 2, in increasing order. The test is
   /// made on the stored float32 features promoted to double, exactly as a brute-force scan
   /// (`abs(double(f) - c) <= tol`) makes it, so the set is exactly the brute-force set.
   /// Throws std::invalid_argument for a non-finite center or a negative or NaN tolerance.
