@@ -31,7 +31,8 @@ bool cell_less(const std::array<std::int32_t, D>& a, const std::array<std::int32
 // Visits the bin indices strongest first, ties broken by the cell (a strict total order, hence
 // deterministic), until `visit` returns false. Greedy clustering takes its seeds from the top of
 // that order and usually stops long before the end, so the order is sorted in stages: the first
-// `first` bins, then (only if needed) the rest, which gives the same sequence as one full sort.
+// `first` bins (selected, then sorted), then only if needed the rest, which gives the same
+// sequence as one full sort.
 template <int D, class Visit>
 void strongest_first(const HashedBins<D>& bins, std::size_t first, Visit&& visit) {
   std::vector<std::int32_t> order(bins.bins().size());
@@ -42,7 +43,8 @@ void strongest_first(const HashedBins<D>& bins, std::size_t first, Visit&& visit
     return cell_less<D>(b[x].cell, b[y].cell);
   };
   const auto mid = order.begin() + static_cast<std::ptrdiff_t>(std::min(first, order.size()));
-  std::partial_sort(order.begin(), mid, order.end(), stronger);
+  if (mid != order.end()) std::nth_element(order.begin(), mid, order.end(), stronger);  // the `first` strongest before mid
+  std::sort(order.begin(), mid, stronger);
   for (auto it = order.begin(); it != order.end(); ++it) {
     if (it == mid) std::sort(mid, order.end(), stronger);
     if (!visit(*it)) return;
@@ -71,7 +73,7 @@ template <int D>
 HashedBins<D>::HashedBins(std::size_t capacity, std::size_t expected_entries) : capacity_(capacity) {
   const std::size_t held = std::max<std::size_t>(1, std::min(capacity, expected_entries));
   std::size_t size = 16;
-  while (size < 2 * held) size <<= 1;
+  while (size < 4 * held) size <<= 1;
   table_.assign(size, -1);
   mask_ = size - 1;
   bins_.reserve(held);
@@ -121,7 +123,8 @@ std::int32_t HashedBins<D>::add(const Cell& cell, const Value& value, double wei
       return b;
     }
   }
-  // A new cell. The table holds at most half its size in bins, so probing always ends.
+  // A new cell. The table holds at most half its size in bins (a quarter as sized), so probing
+  // always ends and a miss probes about 1.4 slots.
   if (bins_.size() >= capacity_ || 2 * (bins_.size() + 1) > table_.size()) {
     ++dropped_entries_;
     dropped_weight_ += weight;
@@ -168,7 +171,7 @@ std::vector<Cluster> rotation_clusters(const HashedBins<4>& bins, double cell, d
   std::vector<Cluster> out;
   // angle(q1, q2) <= radius  <=>  |q1 . q2| >= cos(radius / 2)
   const double min_dot = std::cos(0.5 * std::min(radius, 3.14159265358979323846));
-  const std::size_t first = 4 * static_cast<std::size_t>(std::max(max_clusters, 1));
+  const std::size_t first = 2 * static_cast<std::size_t>(std::max(max_clusters, 1));
   strongest_first(bins, first, [&](std::int32_t seed) {
     if (static_cast<int>(out.size()) >= max_clusters) return false;
     if (used[seed]) return true;
@@ -203,7 +206,7 @@ std::vector<Cluster> position_clusters(const HashedBins<3>& bins, double /*cell*
   const auto& b = bins.bins();
   std::vector<char> used(b.size(), 0);
   std::vector<Cluster> out;
-  const std::size_t first = 4 * static_cast<std::size_t>(std::max(max_clusters, 1));
+  const std::size_t first = 2 * static_cast<std::size_t>(std::max(max_clusters, 1));
   strongest_first(bins, first, [&](std::int32_t seed) {
     if (static_cast<int>(out.size()) >= max_clusters) return false;
     if (used[seed]) return true;
