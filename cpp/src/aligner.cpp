@@ -45,51 +45,108 @@ double ms_since(Clock::time_point& t) {
   return ms;
 }
 
-// The pre-filter's view of one gripper pair (see "Pre-filter" in aligner.hpp): A_0 = -n_a,
-// A_1 = -n_b, A_2 = u = (p_b - p_a) / |p_b - p_a|.
-struct GripperAngles {
-  float phi, b0, b1;  // angles (radians) between A_0 and A_1, A_0 and u, A_1 and u
-  float tri;          // det(A_0, A_1, u)
-  bool usable = false;  // the pre-filter may reject this pair's correspondences
-};
-
 // Pre-filter verdicts: solve both point orders, only order 0, only order 1, or reject (counted as
 // the solver would count it).
 enum : std::uint8_t { kSolve = 3, kOrder0 = 1, kOrder1 = 2, kUnderdetermined = 4, kNoAgreement = 8 };
 constexpr std::uint8_t kOrders = 3;  // a verdict & kOrders != 0: solve those orders
+
+constexpr double kGeometryMargin = 5e-4;  // int16 storage (5e-5 rad), float32 and double rounding
+constexpr float kPiF = 3.14159265358979f;
+constexpr float kAngleUnit = kPiF / float(PairIndex::kGeometryScale);  // radians per stored angle step
+constexpr float kTripleUnit = 1.0f / float(PairIndex::kGeometryScale);
+
+// A closed range of stored int16 values (empty when lo > hi).
+struct Range {
+  int lo = 1, hi = 0;
+  bool has(int v) const { return v >= lo && v <= hi; }
+};
+
+// Smallest v in [lo, hi + 1] with pred(v), for pred false then true over [lo, hi] (hi + 1: none).
+template <class Pred>
+int first_true(int lo, int hi, Pred pred) {
+  int a = lo, b = hi + 1;
+  while (a < b) {
+    const int m = a + (b - a) / 2;
+    if (pred(m)) b = m;
+    else a = m + 1;
+  }
+  return a;
+}
+
+// The stored values v with |value(v)| <= m, for value(v) monotone in v (float arithmetic, as the
+// conditions were written on decoded angles): an interval, found by two bisections.
+template <class Value>
+Range within(Value value, float m, bool increasing) {
+  constexpr int lo = -32768, hi = 32767;
+  Range r;
+  if (increasing) {
+    r.lo = first_true(lo, hi, [&](int v) { return value(v) >= -m; });
+    r.hi = first_true(lo, hi, [&](int v) { return value(v) > m; }) - 1;
+  } else {
+    r.lo = first_true(lo, hi, [&](int v) { return value(v) <= m; });
+    r.hi = first_true(lo, hi, [&](int v) { return value(v) < -m; }) - 1;
+  }
+  return r;
+}
+
+// The pre-filter's view of one gripper pair (see "Pre-filter" in aligner.hpp): A_0 = -n_a,
+// A_1 = -n_b, A_2 = u = (p_b - p_a) / |p_b - p_a|, with the angles phi (A_0, A_1), b0 (A_0, u),
+// b1 (A_1, u) and tri = det(A_0, A_1, u). A stored target pair (angles phi', bi, bj, triple
+// product tri', decoded from int16) can give a voting candidate of order 0 when |phi - phi'|,
+// |b0 - bi| and |b1 - bj| are at most the angle margin and |tri - tri'| at most its own, and of
+// order 1 when the same holds with bi, bj replaced by pi - bj, pi - bi. Each condition bounds one
+// stored value, so it is kept as the range of int16 values that satisfy it (the same float
+// arithmetic, evaluated once per gripper pair), and a verdict is a few integer comparisons.
+struct GripperAngles {
+  Range phi, tri;   // stored phi', tri' that pass
+  Range bi0, bj0;   // order 0: stored bi, bj
+  Range bi1, bj1;   // order 1: stored bi (against b1), bj (against b0)
+  bool usable = false;  // the pre-filter may reject this pair's correspondences
+};
 
 // The pre-filter's constants for one alignment.
 struct Prefilter {
   bool on = false;
   float angle_margin = 0;  // 2 tau + margin (radians)
   float tri_margin = 0;    // c(1+c)^2 + c(1+c) + c + margin
-  float col_lo = 0, col_hi = 0;  // collinearity angle clearly below / above the collinear tolerance
   float min_d = 0;         // shorter target pairs are solved (the solver may drop their line pairing)
+  // The collinearity angle min(x, pi - x) of a stored angle x is at most col_lo (clearly below the
+  // collinear tolerance) for stored values <= near0 or >= near_pi, and above col_hi (clearly
+  // above it) for stored values in `far`.
+  int near0 = 0, near_pi = 0;
+  Range far;
 };
 
-constexpr double kGeometryMargin = 5e-4;  // int16 storage (5e-5 rad), float32 and double rounding
-constexpr float kPiF = 3.14159265358979f;
+GripperAngles gripper_ranges(const Prefilter& pf, float phi, float b0, float b1, float tri) {
+  const float m = pf.angle_margin;
+  auto angle = [](int v) { return float(v) * kAngleUnit; };
+  GripperAngles ga;
+  ga.phi = within([&](int v) { return phi - angle(v); }, m, false);
+  ga.tri = within([&](int v) { return tri - float(v) * kTripleUnit; }, pf.tri_margin, false);
+  ga.bi0 = within([&](int v) { return b0 - angle(v); }, m, false);
+  ga.bj0 = within([&](int v) { return b1 - angle(v); }, m, false);
+  ga.bj1 = within([&](int v) { return b0 - (kPiF - angle(v)); }, m, true);
+  ga.bi1 = within([&](int v) { return b1 - (kPiF - angle(v)); }, m, true);
+  ga.usable = true;
+  return ga;
+}
 
-// Verdict on a target pair (its feature f, geometry g) for a gripper pair's angles.
+// Verdict on a target pair (its feature f, geometry g) for a gripper pair's ranges.
 inline std::uint8_t prefilter_verdict(const Prefilter& pf, const GripperAngles& ga, const float* f,
                                       const std::int16_t* g) {
   if (!(f[0] > pf.min_d)) return kSolve;
-  constexpr float ang = kPiF / float(PairIndex::kGeometryScale);
-  constexpr float inv = 1.0f / float(PairIndex::kGeometryScale);
-  const float phi = g[0] * ang, bi = g[1] * ang, bj = g[2] * ang, tri = g[3] * inv;
-  const float m = pf.angle_margin;
-  if (std::abs(ga.phi - phi) <= m && std::abs(ga.tri - tri) <= pf.tri_margin) {
-    std::uint8_t orders = 0;
-    if (std::abs(ga.b0 - bi) <= m && std::abs(ga.b1 - bj) <= m) orders |= kOrder0;
-    if (std::abs(ga.b0 - (kPiF - bj)) <= m && std::abs(ga.b1 - (kPiF - bi)) <= m) orders |= kOrder1;
+  const int phi = g[0], bi = g[1], bj = g[2];
+  if (ga.phi.has(phi) && ga.tri.has(g[3])) {
+    const std::uint8_t orders = static_cast<std::uint8_t>((ga.bi0.has(bi) && ga.bj0.has(bj) ? kOrder0 : 0) |
+                                                          (ga.bi1.has(bi) && ga.bj1.has(bj) ? kOrder1 : 0));
     if (orders) return orders;
   }
   // As the solver would count it: underdetermined when the target side is collinear,
   // max(|n_i x n_j|, |n_i x u|, |n_j x u|) <= sin(collinear_tolerance), i.e. when each of the
   // three angles lies within collinear_tolerance (<= pi/2) of 0 or pi.
-  const float col = std::max({std::min(phi, kPiF - phi), std::min(bi, kPiF - bi), std::min(bj, kPiF - bj)});
-  if (col <= pf.col_lo) return kUnderdetermined;
-  if (col > pf.col_hi) return kNoAgreement;
+  auto near = [&](int v) { return v <= pf.near0 || v >= pf.near_pi; };
+  if (near(phi) && near(bi) && near(bj)) return kUnderdetermined;
+  if (pf.far.has(phi) || pf.far.has(bi) || pf.far.has(bj)) return kNoAgreement;
   return kSolve;
 }
 
@@ -283,8 +340,14 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
     pf.angle_margin = static_cast<float>(2.0 * std::min(tau, kPi) + kGeometryMargin);
     pf.tri_margin = static_cast<float>(c * (1 + c) * (1 + c) + c * (1 + c) + c + kGeometryMargin);
     const double collinear = std::min(opt.collinear_tolerance, 0.5 * kPi);
-    pf.col_lo = static_cast<float>(collinear - kGeometryMargin);
-    pf.col_hi = static_cast<float>(collinear + kGeometryMargin);
+    const float col_lo = static_cast<float>(collinear - kGeometryMargin);
+    const float col_hi = static_cast<float>(collinear + kGeometryMargin);
+    // min(x, pi - x) <= col_lo  <=>  x <= col_lo or pi - x <= col_lo; > col_hi  <=>  both above.
+    auto angle = [](int v) { return float(v) * kAngleUnit; };
+    pf.near0 = first_true(-32768, 32767, [&](int v) { return angle(v) > col_lo; }) - 1;
+    pf.near_pi = first_true(-32768, 32767, [&](int v) { return kPiF - angle(v) <= col_lo; });
+    pf.far.lo = first_true(-32768, 32767, [&](int v) { return angle(v) > col_hi; });
+    pf.far.hi = first_true(-32768, 32767, [&](int v) { return kPiF - angle(v) <= col_hi; }) - 1;
     // The solver drops the line pairing when |d| <= 1e-9 (1 + the largest coordinate).
     const double scale = 1.0 + std::max(gp.cwiseAbs().maxCoeff(), index.points().cwiseAbs().maxCoeff());
     pf.min_d = static_cast<float>(4e-9 * scale);
@@ -297,13 +360,9 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
       const Vector3d u = d / len;
       const double col = std::max({a0.cross(a1).norm(), a0.cross(u).norm(), a1.cross(u).norm()});
       if (!(col > sin_collinear + kGeometryMargin)) continue;  // the solver's own test decides
-      GripperAngles& ga = gangles[g];
       auto angle = [](double cosine) { return static_cast<float>(std::acos(std::clamp(cosine, -1.0, 1.0))); };
-      ga.phi = angle(a0.dot(a1));
-      ga.b0 = angle(a0.dot(u));
-      ga.b1 = angle(a1.dot(u));
-      ga.tri = static_cast<float>(a0.cross(a1).dot(u));
-      ga.usable = true;
+      gangles[g] = gripper_ranges(pf, angle(a0.dot(a1)), angle(a0.dot(u)), angle(a1.dot(u)),
+                                  static_cast<float>(a0.cross(a1).dot(u)));
     }
   }
   std::vector<std::vector<std::uint32_t>> hits(gpairs.size());
