@@ -447,15 +447,46 @@ void check_box(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance) 
 
 }  // namespace
 
+// The floats x with |double(x) - c| <= t (the brute-force test, in double): since double(x) - c
+// grows with x, they form an interval [lo, hi] of floats (lo > hi: none). Found from the nearest
+// floats to c -/+ t and stepped to the exact ends, so that every later test is a float comparison
+// equal to the double one.
+namespace {
+struct FloatRange {
+  float lo, hi;
+};
+FloatRange float_range(double c, double t) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  auto above_lo = [&](float x) { return double(x) - c >= -t; };
+  auto below_hi = [&](float x) { return double(x) - c <= t; };
+  auto to_float = [](double v) {
+    return v < -double(std::numeric_limits<float>::max()) ? -std::numeric_limits<float>::max()
+           : v > double(std::numeric_limits<float>::max()) ? std::numeric_limits<float>::max()
+                                                           : static_cast<float>(v);
+  };
+  FloatRange r{to_float(c - t), to_float(c + t)};
+  // Step down while the float below still passes, up while this one fails (a few steps at most;
+  // the ends stop at the largest finite floats, and infinities pass or fail as the test says).
+  while (r.lo > -inf && above_lo(std::nextafter(r.lo, -inf))) r.lo = std::nextafter(r.lo, -inf);
+  while (r.lo < inf && !above_lo(r.lo)) r.lo = std::nextafter(r.lo, inf);
+  while (r.hi < inf && below_hi(std::nextafter(r.hi, inf))) r.hi = std::nextafter(r.hi, inf);
+  while (r.hi > -inf && !below_hi(r.hi)) r.hi = std::nextafter(r.hi, -inf);
+  return r;
+}
+}  // namespace
+
 // Walks the tree for the box |f - center| <= tolerance: whole(b, e) for a subtree wholly inside,
-// one(k) for each single stored pair inside.
+// one(k) for each single stored pair inside, in increasing index order.
 template <class Whole, class One>
 void walk(const PairIndex::Impl& s, const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance, Whole whole,
           One one) {
   const std::size_t m = std::size_t(s.pairs.rows());
   if (m == 0) return;
-  const double c[3] = {center[0], center[1], center[2]};
-  const double t[3] = {tolerance[0], tolerance[1], tolerance[2]};
+  FloatRange q[3];
+  for (int a = 0; a < 3; ++a) {
+    q[a] = float_range(center[a], tolerance[a]);
+    if (q[a].lo > q[a].hi) return;  // no float passes
+  }
   const float* feat = s.features.data();
   struct Item {
     std::uint32_t node, b, e;
@@ -469,13 +500,12 @@ void walk(const PairIndex::Impl& s, const Eigen::Vector3d& center, const Eigen::
     const float* bx = &s.boxes[6 * std::size_t(it.node)];
     bool disjoint = false, inside = true;
     for (int a = 0; a < 3; ++a) {
-      const double lo = bx[a], hi = bx[3 + a];
-      // {f : |f - c| <= t} (in double) is an interval, so testing the box's ends is exact.
-      if ((hi < c[a] && c[a] - hi > t[a]) || (lo > c[a] && lo - c[a] > t[a])) {
+      const float lo = bx[a], hi = bx[3 + a];
+      if (hi < q[a].lo || lo > q[a].hi) {
         disjoint = true;
         break;
       }
-      inside = inside && std::abs(lo - c[a]) <= t[a] && std::abs(hi - c[a]) <= t[a];
+      inside = inside && lo >= q[a].lo && hi <= q[a].hi;
     }
     if (disjoint) continue;
     if (inside) {
@@ -485,8 +515,8 @@ void walk(const PairIndex::Impl& s, const Eigen::Vector3d& center, const Eigen::
     if (it.level == s.depth) {
       for (std::uint32_t k = it.b; k < it.e; ++k) {
         const float* f = feat + 3 * std::size_t(k);
-        if (std::abs(double(f[0]) - c[0]) <= t[0] && std::abs(double(f[1]) - c[1]) <= t[1] &&
-            std::abs(double(f[2]) - c[2]) <= t[2])
+        if (f[0] >= q[0].lo && f[0] <= q[0].hi && f[1] >= q[1].lo && f[1] <= q[1].hi && f[2] >= q[2].lo &&
+            f[2] <= q[2].hi)
           one(k);
       }
       continue;

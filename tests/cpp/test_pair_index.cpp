@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <random>
 #include <regex>
 #include <set>
@@ -86,7 +87,7 @@ void check_queries(const PairIndex& idx, unsigned seed, int count) {
   for (int q = 0; q < count; ++q) {
     Eigen::Vector3d c = f.row(pick(rng)).cast<double>().transpose();
     Eigen::Vector3d t;
-    const int kind = q % 6;
+    const int kind = q % 8;
     if (kind == 0) {  // typical: (2.5 mm, 0.05, 0.05) scaled
       t = Eigen::Vector3d(0.0025, 0.05, 0.05) * std::exp(2.0 * g(rng));
       c += Eigen::Vector3d(t[0] * g(rng), t[1] * g(rng), t[2] * g(rng));
@@ -101,6 +102,14 @@ void check_queries(const PairIndex& idx, unsigned seed, int count) {
       t = Eigen::Vector3d(0.0025, 0.05, 0.05) * std::exp(g(rng));
       const int a = int(q / 6) % 3;
       c[a] += (q % 4 < 2 ? 1.0 : -1.0) * t[a];
+    } else if (kind == 6) {  // tolerances beyond float range or infinite on some axes
+      t = Eigen::Vector3d(0.0025, 0.05, 0.05);
+      t[q / 8 % 3] = (q / 24) % 2 ? std::numeric_limits<double>::infinity() : 1e300;
+    } else if (kind == 7) {  // a box edge half a float step from stored features (rounding of the ends)
+      t = Eigen::Vector3d(0.0025, 0.05, 0.05) * std::exp(g(rng));
+      const int a = q / 8 % 3;
+      const double step = std::nextafter(float(c[a]), std::numeric_limits<float>::infinity()) - float(c[a]);
+      c[a] += ((q / 24) % 2 ? 1.0 : -1.0) * (t[a] + 0.5 * step);
     } else {  // random box anywhere in the feature range, anisotropic
       c = Eigen::Vector3d(0.1 * u(rng), 2 * u(rng) - 1, 4 * u(rng) - 2);
       t = Eigen::Vector3d(0.02 * u(rng), 0.5 * u(rng), 0.5 * u(rng));
