@@ -47,22 +47,29 @@ Quaterniond from_axis_angle(const Vector3d& m, double theta) {
   return q;
 }
 
+// The terms of a rotation about the unit axis m, per valid pairing k: m.A_k, m.B_k and
+// z_k = (A_k.B_k - (m.A_k)(m.B_k), m.(A_k x B_k)) (order_hypotheses computes them). Both the
+// rotation about m (rotation_about) and the closed-form test of its residuals are sums of them
+// over a mask.
+struct AxisTerms {
+  std::array<double, 3> ma{}, mb{}, re{}, im{};
+};
+
 // Least-squares rotation about the unit axis m over the pairings in `mask`: the angle maximising
-// sum_k B_k . R(theta) A_k is theta = atan2(num, den), num = sum m.(A x B),
-// den = sum A.B - (m.A)(m.B) (eq. 18 made signed). The versor is built from (num, den) without
-// trigonometry: with r = |(num, den)|, (cos theta/2, sin theta/2 m) is proportional to
-// (r + den, num m) and to (num, (r - den) m); the first is used for den >= 0, the second (exact
-// at a half turn) otherwise. Returns false when every pairing lies along m (no angle information).
-bool axis_rotation(const std::array<Pairing, 3>& p, unsigned mask, const Vector3d& m, Quaterniond& q) {
+// sum_k B_k . R(theta) A_k is theta = atan2(num, den), num = sum m.(A x B) (the im terms),
+// den = sum A.B - (m.A)(m.B) (the re terms; eq. 18 made signed). The versor is built from
+// (num, den) without trigonometry: with r = |(num, den)|, (cos theta/2, sin theta/2 m) is
+// proportional to (r + den, num m) and to (num, (r - den) m); the first is used for den >= 0, the
+// second (exact at a half turn) otherwise. Returns false when every pairing lies along m (no angle
+// information).
+bool rotation_about(const std::array<Pairing, 3>& p, const AxisTerms& t, unsigned mask, const Vector3d& m,
+                    Quaterniond& q) {
   double num = 0.0, den = 0.0, weight = 0.0;
   for (int k = 0; k < 3; ++k) {
     if (!(mask & (1u << k)) || !p[k].valid) continue;
-    const Vector3d& a = p[k].a;
-    const Vector3d& b = p[k].b;
-    const double ma = m.dot(a), mb = m.dot(b);
-    num += m.dot(a.cross(b));
-    den += a.dot(b) - ma * mb;
-    weight += std::max(0.0, (1.0 - ma * ma) * (1.0 - mb * mb));
+    num += t.im[k];
+    den += t.re[k];
+    weight += std::max(0.0, (1.0 - t.ma[k] * t.ma[k]) * (1.0 - t.mb[k] * t.mb[k]));
   }
   const double r2 = num * num + den * den;
   if (weight < 1e-24 || r2 < 1e-28) return false;
@@ -199,14 +206,6 @@ int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_c
       if (p[t].valid && std::abs(m.dot(d[t])) > (chord * (1.0 + 1e-9) + 1e-12) * mn) return true;
     return false;
   };
-  // axis_rotation(p, mask, m) in closed form: with z_k = (A_k.B_k - (m.A_k)(m.B_k), m.(A_k x B_k))
-  // and Z the sum of z_k over the mask, its angle is arg Z, and pairing k's squared residual
-  // |R.A_k - B_k|^2 is |A_k|^2 + |B_k|^2 - 2 (m.A_k)(m.B_k) - 2 Re(z_k conj Z) / |Z|. A residual
-  // beyond the chord (with the margin above) rules the rotation out when every pairing must be
-  // satisfied.
-  struct AxisTerms {
-    std::array<double, 3> ma{}, mb{}, re{}, im{};
-  };
   auto axis_terms = [&](const Vector3d& m) {
     AxisTerms t;
     for (int k = 0; k < 3; ++k) {
@@ -218,12 +217,16 @@ int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_c
     }
     return t;
   };
+  // rotation_about(p, t, mask, m) in closed form: with Z the sum of the z_k over the mask, its
+  // angle is arg Z, and pairing k's squared residual |R.A_k - B_k|^2 is
+  // |A_k|^2 + |B_k|^2 - 2 (m.A_k)(m.B_k) - 2 Re(z_k conj Z) / |Z|. A residual beyond the chord
+  // (with the margin above) rules the rotation out when every pairing must be satisfied.
   auto rotation_fails = [&](const AxisTerms& t, unsigned mask) {
     double zr = 0.0, zi = 0.0;
     for (int k = 0; k < 3; ++k)
       if (mask & (1u << k)) zr += t.re[k], zi += t.im[k];
     const double zn = std::sqrt(zr * zr + zi * zi);
-    if (!(zn > 1e-14)) return false;  // axis_rotation decides
+    if (!(zn > 1e-14)) return false;  // rotation_about decides
     const double limit = chord * chord * (1.0 + 1e-9) + 1e-12;
     for (int k = 0; k < 3; ++k) {
       if (!p[k].valid) continue;
@@ -236,9 +239,11 @@ int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_c
   for (int k = 0; k < nm; ++k) {
     const Vector3d m = meet[k].c / meet[k].cn;
     const unsigned mask = (1u << meet[k].i) | (1u << meet[k].j);
-    if (need_all && (axis_fails(meet[k].c, meet[k].cn) || rotation_fails(axis_terms(m), mask))) continue;
+    if (need_all && axis_fails(meet[k].c, meet[k].cn)) continue;
+    const AxisTerms terms = axis_terms(m);  // for the test and the rotation alike
+    if (need_all && rotation_fails(terms, mask)) continue;
     Quaterniond q;
-    if (!axis_rotation(p, mask, m, q)) continue;
+    if (!rotation_about(p, terms, mask, m, q)) continue;
     const Hyp* h = set.add(q, p, chord, need_all);
     if (h && h->s == nvalid) break;
   }
@@ -248,11 +253,11 @@ int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_c
     if (!p[k].valid || dn[k] > chord) continue;
     const Vector3d m = (p[k].a + p[k].b).normalized();
     if (need_all && axis_fails(m, 1.0)) continue;
-    const AxisTerms terms = need_all ? axis_terms(m) : AxisTerms();  // the same axis for every j
+    const AxisTerms terms = axis_terms(m);  // the same axis for every j
     for (int j = 0; j < 3; ++j) {
       if (j == k || !p[j].valid || (need_all && rotation_fails(terms, 1u << j))) continue;
       Quaterniond q;
-      if (axis_rotation(p, 1u << j, m, q)) set.add(q, p, chord, need_all);
+      if (rotation_about(p, terms, 1u << j, m, q)) set.add(q, p, chord, need_all);
     }
   }
   // TRIAD fallback when no meeting is well conditioned (every difference parallel: the axis lies
@@ -285,7 +290,8 @@ int order_hypotheses(const std::array<Pairing, 3>& p, double chord, double sin_c
     const double vn = v.norm();
     if (vn <= kTiny) continue;
     Hyp polished;
-    if (!axis_rotation(p, o.mask, v / vn, polished.q)) continue;
+    const Vector3d axis = v / vn;
+    if (!rotation_about(p, axis_terms(axis), o.mask, axis, polished.q)) continue;
     if (polished.q.w() < 0) polished.q.coeffs() = -polished.q.coeffs();
     score(p, chord, polished, need_all);
     if (polished.s >= o.s && polished.rms <= o.rms) o = polished;
