@@ -30,11 +30,12 @@ bool cell_less(const std::array<std::int32_t, D>& a, const std::array<std::int32
 
 // Visits the bin indices strongest first, ties broken by the cell (a strict total order, hence
 // deterministic), until `visit` returns false. Greedy clustering takes its seeds from the top of
-// that order and usually stops long before the end, so the order is sorted in stages: the first
-// `first` bins (selected, then sorted), then only if needed the rest, which gives the same
-// sequence as one full sort.
+// that order and usually stops long before the end (after `max_clusters` clusters), so the order
+// is sorted in stages: the first 2 * max_clusters bins (selected, then sorted), then only if
+// needed the rest, which gives the same sequence as one full sort.
 template <int D, class Visit>
-void strongest_first(const HashedBins<D>& bins, std::size_t first, Visit&& visit) {
+void strongest_first(const HashedBins<D>& bins, int max_clusters, Visit&& visit) {
+  const std::size_t first = 2 * static_cast<std::size_t>(std::max(max_clusters, 1));
   std::vector<std::int32_t> order(bins.bins().size());
   std::iota(order.begin(), order.end(), 0);
   const auto& b = bins.bins();
@@ -171,8 +172,7 @@ std::vector<Cluster> rotation_clusters(const HashedBins<4>& bins, double cell, d
   std::vector<Cluster> out;
   // angle(q1, q2) <= radius  <=>  |q1 . q2| >= cos(radius / 2)
   const double min_dot = std::cos(0.5 * std::min(radius, 3.14159265358979323846));
-  const std::size_t first = 2 * static_cast<std::size_t>(std::max(max_clusters, 1));
-  strongest_first(bins, first, [&](std::int32_t seed) {
+  strongest_first(bins, max_clusters, [&](std::int32_t seed) {
     if (static_cast<int>(out.size()) >= max_clusters) return false;
     if (used[seed]) return true;
     const Eigen::Vector4d seed_mean = b[seed].sum.normalized();
@@ -206,8 +206,7 @@ std::vector<Cluster> position_clusters(const HashedBins<3>& bins, double /*cell*
   const auto& b = bins.bins();
   std::vector<char> used(b.size(), 0);
   std::vector<Cluster> out;
-  const std::size_t first = 2 * static_cast<std::size_t>(std::max(max_clusters, 1));
-  strongest_first(bins, first, [&](std::int32_t seed) {
+  strongest_first(bins, max_clusters, [&](std::int32_t seed) {
     if (static_cast<int>(out.size()) >= max_clusters) return false;
     if (used[seed]) return true;
     const Eigen::Vector3d seed_mean = b[seed].sum / b[seed].weight;

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -54,6 +55,11 @@ constexpr double kGeometryMargin = 5e-4;  // int16 storage (5e-5 rad), float32 a
 constexpr float kPiF = 3.14159265358979f;
 constexpr float kAngleUnit = kPiF / float(PairIndex::kGeometryScale);  // radians per stored angle step
 constexpr float kTripleUnit = 1.0f / float(PairIndex::kGeometryScale);
+constexpr int kStoredMin = std::numeric_limits<std::int16_t>::min();  // the range of a stored value
+constexpr int kStoredMax = std::numeric_limits<std::int16_t>::max();
+
+// A stored angle decoded, in the float arithmetic every pre-filter condition is written in.
+float stored_angle(int v) { return float(v) * kAngleUnit; }
 
 // A closed range of stored int16 values (empty when lo > hi).
 struct Range {
@@ -61,10 +67,11 @@ struct Range {
   bool has(int v) const { return v >= lo && v <= hi; }
 };
 
-// Smallest v in [lo, hi + 1] with pred(v), for pred false then true over [lo, hi] (hi + 1: none).
+// Smallest stored value v with pred(v), for pred false then true over the stored range
+// (kStoredMax + 1: none).
 template <class Pred>
-int first_true(int lo, int hi, Pred pred) {
-  int a = lo, b = hi + 1;
+int first_true(Pred pred) {
+  int a = kStoredMin, b = kStoredMax + 1;
   while (a < b) {
     const int m = a + (b - a) / 2;
     if (pred(m)) b = m;
@@ -77,14 +84,13 @@ int first_true(int lo, int hi, Pred pred) {
 // conditions were written on decoded angles): an interval, found by two bisections.
 template <class Value>
 Range within(Value value, float m, bool increasing) {
-  constexpr int lo = -32768, hi = 32767;
   Range r;
   if (increasing) {
-    r.lo = first_true(lo, hi, [&](int v) { return value(v) >= -m; });
-    r.hi = first_true(lo, hi, [&](int v) { return value(v) > m; }) - 1;
+    r.lo = first_true([&](int v) { return value(v) >= -m; });
+    r.hi = first_true([&](int v) { return value(v) > m; }) - 1;
   } else {
-    r.lo = first_true(lo, hi, [&](int v) { return value(v) <= m; });
-    r.hi = first_true(lo, hi, [&](int v) { return value(v) < -m; }) - 1;
+    r.lo = first_true([&](int v) { return value(v) <= m; });
+    r.hi = first_true([&](int v) { return value(v) < -m; }) - 1;
   }
   return r;
 }
@@ -119,14 +125,13 @@ struct Prefilter {
 
 GripperAngles gripper_ranges(const Prefilter& pf, float phi, float b0, float b1, float tri) {
   const float m = pf.angle_margin;
-  auto angle = [](int v) { return float(v) * kAngleUnit; };
   GripperAngles ga;
-  ga.phi = within([&](int v) { return phi - angle(v); }, m, false);
+  ga.phi = within([&](int v) { return phi - stored_angle(v); }, m, false);
   ga.tri = within([&](int v) { return tri - float(v) * kTripleUnit; }, pf.tri_margin, false);
-  ga.bi0 = within([&](int v) { return b0 - angle(v); }, m, false);
-  ga.bj0 = within([&](int v) { return b1 - angle(v); }, m, false);
-  ga.bj1 = within([&](int v) { return b0 - (kPiF - angle(v)); }, m, true);
-  ga.bi1 = within([&](int v) { return b1 - (kPiF - angle(v)); }, m, true);
+  ga.bi0 = within([&](int v) { return b0 - stored_angle(v); }, m, false);
+  ga.bj0 = within([&](int v) { return b1 - stored_angle(v); }, m, false);
+  ga.bj1 = within([&](int v) { return b0 - (kPiF - stored_angle(v)); }, m, true);
+  ga.bi1 = within([&](int v) { return b1 - (kPiF - stored_angle(v)); }, m, true);
   ga.usable = true;
   return ga;
 }
@@ -343,11 +348,10 @@ AlignResult align_impl(const PairIndex& index, const AlignerOptions& opt, const 
     const float col_lo = static_cast<float>(collinear - kGeometryMargin);
     const float col_hi = static_cast<float>(collinear + kGeometryMargin);
     // min(x, pi - x) <= col_lo  <=>  x <= col_lo or pi - x <= col_lo; > col_hi  <=>  both above.
-    auto angle = [](int v) { return float(v) * kAngleUnit; };
-    pf.near0 = first_true(-32768, 32767, [&](int v) { return angle(v) > col_lo; }) - 1;
-    pf.near_pi = first_true(-32768, 32767, [&](int v) { return kPiF - angle(v) <= col_lo; });
-    pf.far.lo = first_true(-32768, 32767, [&](int v) { return angle(v) > col_hi; });
-    pf.far.hi = first_true(-32768, 32767, [&](int v) { return kPiF - angle(v) <= col_hi; }) - 1;
+    pf.near0 = first_true([&](int v) { return stored_angle(v) > col_lo; }) - 1;
+    pf.near_pi = first_true([&](int v) { return kPiF - stored_angle(v) <= col_lo; });
+    pf.far.lo = first_true([&](int v) { return stored_angle(v) > col_hi; });
+    pf.far.hi = first_true([&](int v) { return kPiF - stored_angle(v) <= col_hi; }) - 1;
     // The solver drops the line pairing when |d| <= 1e-9 (1 + the largest coordinate).
     const double scale = 1.0 + std::max(gp.cwiseAbs().maxCoeff(), index.points().cwiseAbs().maxCoeff());
     pf.min_d = static_cast<float>(4e-9 * scale);
