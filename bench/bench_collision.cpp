@@ -8,7 +8,9 @@
 //
 // Candidates: the palm faces the target's centre from a random direction, its top 0..120 mm in
 // front of the target's extent along that direction, with a random roll and random DOFs within
-// the limits (flexions in the open third): a mix of kept and pruned poses. The model directory is PAIRGRASP_MODEL_DIR (environment, else compile time).
+// the limits (flexions in the open third): a mix of kept and pruned poses. The model directory is
+// PAIRGRASP_MODEL_DIR (environment, else compile time); PAIRGRASP_FIELD_CELL (metres, environment)
+// sets the distance fields' cell of the checker under test (default CheckOptions::field_cell).
 #include <pairgrasp/collision.hpp>
 #include <pairgrasp/grasp.hpp>
 #include <pairgrasp/hand.hpp>
@@ -18,11 +20,14 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <map>
 #include <memory>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -53,6 +58,18 @@ struct Scene {
   double build_seconds = 0.0;
 };
 
+// The options of the checker under test: the defaults, the field cell from PAIRGRASP_FIELD_CELL.
+CheckOptions checker_options() {
+  CheckOptions options;
+  if (const char* cell = std::getenv("PAIRGRASP_FIELD_CELL")) {
+    char* end = nullptr;
+    options.field_cell = std::strtod(cell, &end);
+    if (end == cell || *end != '\0' || !(options.field_cell > 0.0) || !std::isfinite(options.field_cell))
+      throw std::invalid_argument(std::string("PAIRGRASP_FIELD_CELL: expected a length > 0 in metres, got '") + cell + "'");
+  }
+  return options;
+}
+
 Scene& scene(const std::string& name) {
   static std::map<std::string, Scene> scenes;
   auto it = scenes.find(name);
@@ -61,7 +78,8 @@ Scene& scene(const std::string& name) {
   const Hand hand = Hand::load(model_dir() + "/barrett/barrett.json");
   const Mesh target = load_mesh(model_dir() + "/targets/" + name + ".stl");
   const auto t0 = std::chrono::steady_clock::now();
-  s.checker = std::make_unique<GraspChecker>(hand, target);
+  const CheckOptions options = checker_options();
+  s.checker = std::make_unique<GraspChecker>(hand, target, Mask(), std::vector<Obstacle>{}, options);
   s.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   std::mt19937_64 rng(11);
@@ -138,7 +156,8 @@ int differing(const std::vector<CheckResult>& a, const std::vector<CheckResult>&
 }
 
 void print_field_comparison() {
-  std::printf("\nDistance field against exact check, serial, %d poses per set\n", kCandidates);
+  std::printf("\nDistance field (cell %.2f mm) against exact check, serial, %d poses per set\n",
+              1e3 * scene(kTargets[0]).checker->options().field_cell, kCandidates);
   std::printf("%-6s %-12s %-6s %12s %12s %8s %7s %9s %9s\n", "target", "poses", "depth", "exact us", "field us",
               "ratio", "differ", "field MB", "build s");
   for (const char* t : kTargets) {
@@ -262,7 +281,8 @@ class Recorder : public benchmark::ConsoleReporter {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
+  checker_options();  // a malformed PAIRGRASP_FIELD_CELL fails before any benchmark runs
   register_all();
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
@@ -289,4 +309,13 @@ int main(int argc, char** argv) {
   print_close_comparison();
   benchmark::Shutdown();
   return 0;
+}
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_collision: error: %s\n", e.what());
+    return 1;
+  }
 }

@@ -146,12 +146,21 @@ def run_ppf(args) -> dict:
         # pairgrasp: the pair index over the same points (d_max: the patch's diameter plus h).
         t0 = time.perf_counter()
         index = pg.PairIndex(P, N, d_max=2 * radius + h)
-        aligner = pg.Aligner(index)
+        tolerances = {}
+        if args.feature_tolerance:
+            d, phi, beta = args.feature_tolerance
+            tolerances["tolerance"] = [d * index.spacing, phi, beta]
+        if args.angle_tolerance:
+            tolerances["angle_tolerance"] = math.radians(args.angle_tolerance)
+        aligner = pg.Aligner(index, **tolerances)
         methods = {"pairgrasp": {"train_s": time.perf_counter() - t0, "pairs": len(index), "aligner": aligner}}
+        tol = np.asarray(aligner.tolerance, float)
+        row["aligner_tolerance"] = {"d_spacings": float(tol[0] / index.spacing), "phi": float(tol[1]),
+                                    "beta": float(tol[2]), "angle_deg": math.degrees(aligner.angle_tolerance)}
         if args.aligner_before:
             # The same aligner with its pre-filter off (every correspondence solved): identical poses.
             methods["pairgrasp, no prefilter"] = {"train_s": methods["pairgrasp"]["train_s"], "pairs": len(index),
-                                                  "aligner": pg.Aligner(index, prefilter=False)}
+                                                  "aligner": pg.Aligner(index, prefilter=False, **tolerances)}
         for step in args.ppf_step:
             t0 = time.perf_counter()
             det = cv2.ppf_match_3d_PPF3DDetector(step, args.ppf_distance_step)
@@ -213,7 +222,10 @@ def run_ppf(args) -> dict:
 
 
 def ppf_table(res, args) -> str:
-    lines = ["| target | facets | method | train / index (s) | query (ms) | success | on surface | "
+    t = res["rows"][0]["aligner_tolerance"]
+    lines = [f"pairgrasp's aligner: feature tolerance (d, phi, beta) = ({t['d_spacings']:.3g} h, {t['phi']:.3g}, "
+             f"{t['beta']:.3g}), rotation tolerance {t['angle_deg']:.3g} deg", "",
+             "| target | facets | method | train / index (s) | query (ms) | success | on surface | "
              "+ICP success | +ICP on surface | median rot. error raw / +ICP (°) |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for row in res["rows"]:
@@ -505,6 +517,11 @@ def main(argv=None) -> int:
     g.add_argument("--query-points", type=int, default=8, help="patch points the aligner aligns")
     g.add_argument("--aligner-before", action="store_true",
                    help="also time the aligner with its pre-filter off (same poses) in the same run")
+    g.add_argument("--feature-tolerance", type=float, nargs=3, metavar=("D", "PHI", "BETA"),
+                   help="the aligner's feature tolerance box: D in index spacings h, PHI and BETA in radians "
+                        "(default: the aligner's, 0.5 0.1 0.1)")
+    g.add_argument("--angle-tolerance", type=float, metavar="DEG",
+                   help="the aligner's rotation tolerance in degrees (default: the aligner's, 4)")
     g.add_argument("--ppf-step", type=float, nargs="+", default=[0.1, 0.08],
                    help="relativeSamplingStep values of the detector")
     g.add_argument("--ppf-distance-step", type=float, default=0.05, help="relativeDistanceStep")
