@@ -91,7 +91,6 @@ def draw_grasp(hand, target, free: Optional[np.ndarray], wrist_pose, dofs, path:
         ax.tick_params(labelsize=6)
     if title:
         fig.suptitle(title, fontsize=9)
-    fig.tight_layout()
     _save(fig, path)
     plt.close(fig)
     return path
@@ -108,7 +107,12 @@ def draw_planned(planner, grasp, path: str, label: str = "") -> str:
 
 
 def _save(fig, path: str):
-    """Saves atomically: a partial PNG never appears under ``path``."""
+    """Lays the figure out (tight) and saves it atomically: a partial PNG never appears under
+    ``path``."""
+    fig.tight_layout()
+    # tight_layout() leaves a placeholder layout engine, for which savefig() draws the whole figure
+    # once more before drawing it into the file; the layout is done, so drop it (same pixels).
+    fig.set_layout_engine(None)
     tmp = f"{path}.part"
     fig.savefig(tmp, format="png")
     os.replace(tmp, path)
@@ -163,7 +167,6 @@ def figure7(planner, samples: Sequence[np.ndarray], path: str, max_target: int =
     ax.set_ylabel("MDS 2")
     ax.set_title("Pair features: target and gripper constellations (Fig. 7)", fontsize=9)
     ax.legend(fontsize=6, loc="best")
-    fig.tight_layout()
     _save(fig, path)
     plt.close(fig)
     return path
@@ -210,7 +213,6 @@ def figure8(candidates, path: str, title: str = "") -> str:
     ax.set_title(f"{title} Q_A vs epsilon over {len(qa)} candidates (Spearman {rho:.2f}) (Fig. 8)".strip(),
                  fontsize=9)
     ax.legend(fontsize=7)
-    fig.tight_layout()
     _save(fig, path)
     plt.close(fig)
     return path
@@ -244,7 +246,6 @@ def simulation_figure(epsilons: Sequence[float], results, params, path: str, tit
     rate = 100.0 * ok.mean() if len(ok) else 0.0
     ax.set_title(f"{title} simulated: {int(ok.sum())}/{len(ok)} held ({rate:.0f}%)".strip(), fontsize=9)
     ax.legend(fontsize=7)
-    fig.tight_layout()
     _save(fig, path)
     plt.close(fig)
     return path
