@@ -445,9 +445,6 @@ void check_box(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance) 
                                   fmt(tolerance[1]) + ", " + fmt(tolerance[2]) + ")");
 }
 
-}  // namespace
-
-namespace {
 // The floats x with |double(x) - c| <= t (the brute-force test, in double): since double(x) - c
 // grows with x, they form an interval [lo, hi] of floats (lo > hi: none). Found from the nearest
 // floats to c -/+ t and stepped to the exact ends, so that every later test is a float comparison

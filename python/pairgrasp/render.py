@@ -110,8 +110,9 @@ def _save(fig, path: str):
     """Lays the figure out (tight) and saves it atomically: a partial PNG never appears under
     ``path``."""
     fig.tight_layout()
-    # tight_layout() leaves a placeholder layout engine, for which savefig() draws the whole figure
-    # once more before drawing it into the file; the layout is done, so drop it (same pixels).
+    # tight_layout() leaves matplotlib's PlaceHolderLayoutEngine set, and with any engine set
+    # savefig() draws the whole figure once more before drawing it into the file; the layout is
+    # done, so the engine goes (same pixels).
     fig.set_layout_engine(None)
     tmp = f"{path}.part"
     fig.savefig(tmp, format="png")
