@@ -6,6 +6,7 @@
 #include <pybind11/stl.h>
 
 #include <pairgrasp/collision.hpp>
+#include <pairgrasp/free_surface.hpp>
 #include <pairgrasp/types.hpp>
 
 #include <algorithm>
@@ -94,6 +95,11 @@ inline Pose pose_from(const pyb::handle& obj, const std::string& name) {
 
 /// A per-face mask from a 1-D bool array (None: nothing); std::invalid_argument("<name>: ...").
 std::optional<Mask> mask_from(const pyb::handle& obj, const std::string& name);  // bind_query.cpp
+/// Meshes from a list of Mesh (None: none); std::invalid_argument("<name>[i]: ...").
+std::vector<Mesh> meshes_from(const pyb::handle& obj, const std::string& name);  // bind_query.cpp
+/// The Occlusion of the keyword arguments free_surface() and GraspPlanner take.
+Occlusion occlusion_from(const pyb::handle& paint, const pyb::handle& regions, const pyb::handle& occluders,
+                         double distance, const pyb::handle& viewpoints, const pyb::handle& support);  // bind_paint.cpp
 /// Obstacles from a list of Mesh, of (name, Mesh) pairs, or a dict name -> Mesh (None: none).
 std::vector<Obstacle> obstacles_from(const pyb::handle& obj);  // bind_collision.cpp
 
@@ -108,10 +114,10 @@ inline pyb::array_t<bool> mask_to_numpy(const Mask& m) {
 void bind_errors(pyb::module_& m);     // bind_errors.cpp: FileError -> pairgrasp.FileError(RuntimeError)
 void bind_mesh(pyb::module_& m);       // bind_mesh.cpp: Mesh, load_mesh, make_mesh
 void bind_hand(pyb::module_& m);       // bind_hand.cpp: Hand, load_hand, Constellation
-void bind_paint(pyb::module_& m);      // bind_paint.cpp: paint files -> per-face free mask
+void bind_paint(pyb::module_& m);      // bind_paint.cpp: paint files, the free surface (occluders, viewpoints, support)
 void bind_surface(pyb::module_& m);    // bind_surface.cpp: tessellate, UnitFacets, pair_feature, PairIndex
 void bind_alignment(pyb::module_& m);  // bind_alignment.cpp: solve_pair_pose, Aligner
-void bind_query(pyb::module_& m);      // bind_query.cpp: SurfaceQuery, occluded_by, visible_from, combine_free
+void bind_query(pyb::module_& m);      // bind_query.cpp: SurfaceQuery
 void bind_collision(pyb::module_& m);  // bind_collision.cpp: GraspChecker, close, contacts, closing_directions
 void bind_quality(pyb::module_& m);    // bind_quality.cpp: contact wrenches, grasp quality (epsilon)
 void bind_planning(pyb::module_& m);   // bind_planning.cpp: evaluate_grasp, fine_tune, CandidatePipeline, GraspPlanner

@@ -1,8 +1,10 @@
-// Paint: per-face free masks from paint files or regions (pairgrasp/paint.hpp).
+// Paint and the free surface: paint files and regions (pairgrasp/paint.hpp), occluders, viewpoints
+// and the support plane at patch resolution (pairgrasp/free_surface.hpp).
 #include "bind.hpp"
 
 #include <pybind11/stl/filesystem.h>
 
+#include <pairgrasp/free_surface.hpp>
 #include <pairgrasp/mesh.hpp>
 #include <pairgrasp/paint.hpp>
 
@@ -151,7 +153,25 @@ pyb::dict region_dict(const PaintRegion& r) {
   return d;
 }
 
+
+SupportPlane support_from(const pyb::handle& h) {
+  if (pyb::isinstance<SupportPlane>(h)) return h.cast<SupportPlane>();
+  throw std::invalid_argument("support: expected a pairgrasp.SupportPlane or None");
+}
+
 }  // namespace
+
+Occlusion occlusion_from(const pyb::handle& paint, const pyb::handle& regions, const pyb::handle& occluders,
+                         double distance, const pyb::handle& viewpoints, const pyb::handle& support) {
+  Occlusion o;
+  o.paint = mask_from(paint, "paint").value_or(Mask());
+  if (!regions.is_none()) o.regions = regions_from(regions.cast<pyb::iterable>());
+  o.occluders = meshes_from(occluders, "occluders");
+  o.distance = distance;
+  if (!viewpoints.is_none()) o.viewpoints = points_from(viewpoints, "viewpoints");
+  if (!support.is_none()) o.support = support_from(support);
+  return o;
+}
 
 void bind_paint(pyb::module_& m) {
   using V3 = Eigen::Vector3d;
@@ -241,6 +261,109 @@ count, index out of range, region fields), ValueError when the paint leaves no f
 
 The larger side becomes "default" and the faces of the smaller side are listed. ValueError for a
 mask of the wrong size or with no free face, pairgrasp.FileError when the file cannot be written.)doc");
+
+  // ---------------------------------------------------------------- the free surface
+  pyb::class_<SupportPlane>(m, "SupportPlane",
+                            "A plane the target rests on (a table): a point on it and its upward normal (metres).")
+      .def(pyb::init([](const V3& point, const V3& normal) {
+             SupportPlane s;
+             s.point = point;
+             s.normal = normal;
+             s.validate();
+             return s;
+           }),
+           pyb::arg("point") = V3::Zero().eval(), pyb::arg("normal") = V3::UnitZ().eval(),
+           "ValueError ('support: ...') for a non-finite point or normal or a zero normal.")
+      .def_static("below", &SupportPlane::below, pyb::arg("target"), pyb::arg("up") = V3::UnitZ().eval(),
+                  "The plane through the target's lowest point along `up`, normal `up` (the default support).")
+      .def_readonly("point", &SupportPlane::point)
+      .def_readonly("normal", &SupportPlane::normal)
+      .def("height", &SupportPlane::height, pyb::arg("point"), "Signed height of a point above the plane (m).")
+      .def("__repr__", [](const SupportPlane& s) {
+        return "SupportPlane(point=" + std::string(pyb::repr(pyb::cast(s.point).attr("tolist")())) +
+               ", normal=" + std::string(pyb::repr(pyb::cast(s.normal).attr("tolist")())) + ")";
+      });
+
+  pyb::class_<FreeSurface>(m, "FreeSurface", "The target with its free surface at patch resolution.")
+      .def_readonly("mesh", &FreeSurface::mesh, "The target, faces split (conforming) where a mark changes.")
+      .def_property_readonly("free", [](const FreeSurface& f) { return mask_to_numpy(f.free); },
+                             "(F,) bool per face of `mesh`, True = free.")
+      .def_readonly("source_faces", &FreeSurface::source_faces, "(F,) the target face each face lies in.")
+      .def_readonly("resolution", &FreeSurface::resolution, "Longest edge (m) of a patch a mark still divides.")
+      .def_readonly("split_faces", &FreeSurface::split_faces, "Target faces that were split (0: mesh is the target).");
+
+  m.def(
+      "free_surface",
+      [](const Mesh& target, const pyb::object& paint, const pyb::object& regions, const pyb::object& occluders,
+         double distance, const pyb::object& viewpoints, const pyb::object& support, double resolution, int threads) {
+        const Occlusion o = occlusion_from(paint, regions, occluders, distance, viewpoints, support);
+        pyb::gil_scoped_release release;
+        return free_surface(target, o, resolution, threads);
+      },
+      pyb::arg("target"), pyb::arg("paint") = pyb::none(), pyb::arg("regions") = pyb::none(),
+      pyb::arg("occluders") = pyb::none(), pyb::arg("distance") = 0.005, pyb::arg("viewpoints") = pyb::none(),
+      pyb::arg("support") = pyb::none(), pyb::arg("resolution") = std::numeric_limits<double>::infinity(),
+      pyb::arg("threads") = 0,
+      R"doc(The free surface of `target` at patch resolution (FreeSurface): faces split where a mark
+changes, down to `resolution` metres (inf: whole faces).
+
+Marks: `paint` ((F,) bool per face), `regions` (PaintRegion or paint-file dicts, applied in order
+per point), `occluders` (meshes: a point within `distance` m of one, or inside a closed one, is
+occluded), `viewpoints` ((V,3): only what one of them sees stays free), `support` (SupportPlane:
+within `distance` of it is occluded). ValueError naming the field for bad input, a support plane
+that cuts through the target, or when nothing is left free ('no free face left: ...').)doc");
+
+  m.def(
+      "occluded_by",
+      [](const Mesh& mesh, const pyb::object& occluders, double distance, const pyb::object& free, int threads) {
+        const std::vector<Mesh> occ = meshes_from(occluders, "occluders");
+        const Mask start = mask_from(free, "free").value_or(Mask());
+        pyb::gil_scoped_release release;
+        return occluded_by(mesh, occ, distance, start, threads);
+      },
+      pyb::arg("mesh"), pyb::arg("occluders"), pyb::arg("distance"), pyb::arg("free") = pyb::none(),
+      pyb::arg("threads") = 0,
+      "Per-face free mask (F,) bool of `mesh`: faces with a point within `distance` (m) of an occluder mesh, or "
+      "inside a closed one, are occluded (False); whole faces (free_surface() splits them). ANDed with `free` "
+      "when given. ValueError when no face is left free ('no free face left: ...').");
+  m.def(
+      "visible_from",
+      [](const Mesh& mesh, const pyb::object& viewpoints, const pyb::object& free, const pyb::object& occluders,
+         int threads) {
+        const Points eyes = points_from(viewpoints, "viewpoints");
+        const std::vector<Mesh> occ = meshes_from(occluders, "occluders");
+        const Mask start = mask_from(free, "free").value_or(Mask());
+        pyb::gil_scoped_release release;
+        return visible_from(mesh, eyes, start, occ, threads);
+      },
+      pyb::arg("mesh"), pyb::arg("viewpoints"), pyb::arg("free") = pyb::none(), pyb::arg("occluders") = pyb::list(),
+      pyb::arg("threads") = 0,
+      "Per-face free mask (F,) bool of `mesh`: a face is free when some viewpoint ((V,3) array) sees it -- "
+      "front-facing and the segment from one of its sample points (centroid, and 80% towards each corner) to the "
+      "viewpoint blocked by no other face and no occluder. ANDed with `free` when given. ValueError when no face "
+      "is left free.");
+  m.def(
+      "combine_free",
+      [](const pyb::object& a, const pyb::object& b) {
+        const auto ma = mask_from(a, "a"), mb = mask_from(b, "b");
+        if (!ma || !mb) throw std::invalid_argument("a, b: expected two boolean masks");
+        return combine_free(*ma, *mb);
+      },
+      pyb::arg("a"), pyb::arg("b"), "AND of two free masks; ValueError when no face is left free.");
+
+  m.def("support_box", &support_box, pyb::arg("support"), pyb::arg("target"), pyb::arg("margin"),
+        "The support as an obstacle: a box (Mesh named 'support') whose top face lies on the plane, covering the "
+        "target's footprint widened by `margin` m on every side, `margin` deep.");
+
+  m.def(
+      "read_paint",
+      [](const std::filesystem::path& path, const Mesh& mesh) {
+        const Paint p = read_paint(path.string(), mesh);
+        return pyb::make_tuple(mask_to_numpy(p.faces), pyb::cast(p.regions));
+      },
+      pyb::arg("path"), pyb::arg("mesh"),
+      "A paint file's marks, not yet applied: ((F,) bool face marks, [PaintRegion]) -- what free_surface() takes "
+      "as `paint` and `regions`. pairgrasp.FileError as load_paint().");
 }
 
 }  // namespace pairgrasp::py

@@ -527,15 +527,32 @@ void bind_planning(pyb::module_& m) {
       .def(pyb::init([](const Hand& hand, const Mesh& target, const pyb::object& free, const pyb::object& obstacles,
                         double edge, double d_max, std::size_t max_pairs, const std::string& constellation,
                         double spacing, int max_area_samples, double depth_tolerance, double gap, double backoff,
-                        int max_poses, int threads) {
-             const Mask mask = mask_from(free, "free").value_or(Mask());
-             const std::vector<Obstacle> obs = obstacles_from(obstacles);
+                        int max_poses, int threads, const pyb::object& regions, const pyb::object& occluders,
+                        double occluder_distance, const pyb::object& viewpoints, const pyb::object& support) {
+             Scene scene;
+             scene.occlusion = occlusion_from(free, regions, occluders, occluder_distance, viewpoints, support);
+             scene.obstacles = obstacles_from(obstacles);
              const PlannerOptions o = planner_options(edge, d_max, max_pairs, constellation, spacing, max_area_samples,
                                                       depth_tolerance, gap, backoff, max_poses, threads);
              pyb::gil_scoped_release release;
-             return std::make_unique<GraspPlanner>(hand, target, mask, obs, o);
+             return std::make_unique<GraspPlanner>(hand, target, scene, o);
            }),
-           "hand"_a, "target"_a, "free"_a = pyb::none(), "obstacles"_a = pyb::list(), PG_PLANNER_ARGS)
+           "hand"_a, "target"_a, "free"_a = pyb::none(), "obstacles"_a = pyb::list(), PG_PLANNER_ARGS,
+           "regions"_a = pyb::none(), "occluders"_a = pyb::none(), "occluder_distance"_a = 0.005,
+           "viewpoints"_a = pyb::none(), "support"_a = pyb::none(),
+           "The scene: `free` (per-face paint mask), `regions`, `occluders` (within `occluder_distance` m), "
+           "`viewpoints` and `support` (SupportPlane) give the free surface (pairgrasp.free_surface at half the "
+           "first unit-facet edge); `obstacles` and the support's box are what the hand must not touch.")
+      .def_property_readonly("target", &GraspPlanner::target, pyb::return_value_policy::reference_internal,
+                             "The target planned on: faces split where the free surface changes.")
+      .def_property_readonly("free", [](const GraspPlanner& p) { return mask_to_numpy(p.free()); },
+                             "(F,) bool per face of `target`, True = free.")
+      .def_property_readonly("free_surface", &GraspPlanner::free_surface, pyb::return_value_policy::reference_internal)
+      .def_property_readonly("obstacles", [](const GraspPlanner& p) {
+            pyb::list out;
+            for (const Obstacle& o : p.obstacles()) out.append(pyb::make_tuple(o.name, o.mesh));
+            return out;
+          }, "[(name, Mesh)]: what the hand is checked against (the scene's obstacles, then the support's box).")
       .def_property_readonly("setup", &GraspPlanner::setup, pyb::return_value_policy::reference_internal)
       .def_property_readonly("target_index", &GraspPlanner::target_index, pyb::return_value_policy::reference_internal)
       .def_property_readonly("aligner", &GraspPlanner::aligner, pyb::return_value_policy::reference_internal)

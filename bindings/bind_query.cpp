@@ -1,9 +1,7 @@
-// Surface queries: SurfaceQuery (closest points, signed distance, rays) and the reachability masks
-// (occluded_by, visible_from, combine_free).
+// Surface queries: SurfaceQuery (closest points, signed distance, rays).
 #include "bind.hpp"
 
 #include <pairgrasp/error.hpp>
-#include <pairgrasp/reachability.hpp>
 #include <pairgrasp/surface_query.hpp>
 
 #include <optional>
@@ -14,10 +12,11 @@
 namespace pairgrasp::py {
 
 namespace {
-
 using namespace pybind11::literals;
+}  // namespace
 
 std::vector<Mesh> meshes_from(const pyb::handle& obj, const std::string& name) {
+  if (obj.is_none()) return {};
   std::vector<Mesh> out;
   std::size_t i = 0;
   for (const pyb::handle item : obj) {
@@ -30,8 +29,6 @@ std::vector<Mesh> meshes_from(const pyb::handle& obj, const std::string& name) {
   }
   return out;
 }
-
-}  // namespace
 
 std::optional<Mask> mask_from(const pyb::handle& obj, const std::string& name) {
   if (obj.is_none()) return std::nullopt;
@@ -161,51 +158,6 @@ void bind_query(pyb::module_& m) {
           },
           "origin"_a, "direction"_a, "max_t"_a = std::numeric_limits<double>::infinity(),
           "Every hit of one ray, sorted: (t (H,) metres, faces (H,)).");
-
-  // ---------------------------------------------------------------- reachability
-  m.def(
-      "occluded_by",
-      [](const Mesh& mesh, const pyb::object& occluders, double distance, const pyb::object& free, int threads) {
-        const std::vector<Mesh> occ = meshes_from(occluders, "occluders");
-        const Mask start = mask_from(free, "free").value_or(Mask());
-        Mask out;
-        {
-          pyb::gil_scoped_release release;
-          out = occluded_by(mesh, occ, distance, start, threads);
-        }
-        return mask_to_numpy(out);
-      },
-      "mesh"_a, "occluders"_a, "distance"_a, "free"_a = pyb::none(), "threads"_a = 0,
-      "Free mask (F,) bool of `mesh`: faces within `distance` (m) of an occluder mesh, or inside a closed "
-      "one, are occluded (False). ANDed with `free` when given. ValueError when no face is left free "
-      "('no free face left: ...').");
-  m.def(
-      "visible_from",
-      [](const Mesh& mesh, const pyb::object& viewpoints, const pyb::object& free, const pyb::object& occluders,
-         int threads) {
-        const Points eyes = points_from(viewpoints, "viewpoints");
-        const std::vector<Mesh> occ = meshes_from(occluders, "occluders");
-        const Mask start = mask_from(free, "free").value_or(Mask());
-        Mask out;
-        {
-          pyb::gil_scoped_release release;
-          out = visible_from(mesh, eyes, start, occ, threads);
-        }
-        return mask_to_numpy(out);
-      },
-      "mesh"_a, "viewpoints"_a, "free"_a = pyb::none(), "occluders"_a = pyb::list(), "threads"_a = 0,
-      "Free mask (F,) bool of `mesh`: a face is free when some viewpoint ((V,3) array) sees it -- front-facing "
-      "and the segment from one of its sample points (centroid, and 80% towards each corner) to the viewpoint "
-      "blocked by no other face and no occluder. ANDed with `free` when given. ValueError when no face is "
-      "left free.");
-  m.def(
-      "combine_free",
-      [](const pyb::object& a, const pyb::object& b) {
-        const auto ma = mask_from(a, "a"), mb = mask_from(b, "b");
-        if (!ma || !mb) throw std::invalid_argument("a, b: expected two boolean masks");
-        return mask_to_numpy(combine_free(*ma, *mb));
-      },
-      "a"_a, "b"_a, "AND of two free masks; ValueError when no face is left free.");
 }
 
 }  // namespace pairgrasp::py

@@ -202,7 +202,7 @@ class Reader {
     }
   }
 
-  Mask read(const Mesh& mesh) const {
+  Paint read(const Mesh& mesh) const {
     std::ifstream in(path_, std::ios::binary);
     if (!in) fail("file", "cannot open");
     json doc;
@@ -244,15 +244,15 @@ class Reader {
     if (doc.contains("free")) apply_list(doc["free"], "free", true, F, mask, seen);
     if (doc.contains("occluded")) apply_list(doc["occluded"], "occluded", false, F, mask, seen);
 
+    Paint out;
     if (doc.contains("regions")) {
       const json& regs = doc["regions"];
       if (!regs.is_array()) fail("regions", "expected an array of regions, got " + type_name(regs));
-      std::vector<PaintRegion> regions;
-      regions.reserve(regs.size());
-      for (std::size_t i = 0; i < regs.size(); ++i) regions.push_back(region(regs[i], "regions[" + std::to_string(i) + "]"));
-      mask = apply_checked(face_centroids(mesh), regions, std::move(mask));
+      out.regions.reserve(regs.size());
+      for (std::size_t i = 0; i < regs.size(); ++i) out.regions.push_back(region(regs[i], "regions[" + std::to_string(i) + "]"));
     }
-    return mask;
+    out.faces = std::move(mask);
+    return out;
   }
 
  private:
@@ -353,8 +353,11 @@ Mask apply_regions(const Mesh& mesh, const std::vector<PaintRegion>& regions) {
   return apply_regions(mesh, regions, Mask::Constant(mesh.faces.rows(), true));
 }
 
+Paint read_paint(const std::string& path, const Mesh& mesh) { return Reader(path).read(mesh); }
+
 Mask load_paint(const std::string& path, const Mesh& mesh) {
-  Mask mask = Reader(path).read(mesh);
+  const Paint paint = Reader(path).read(mesh);
+  const Mask mask = apply_checked(face_centroids(mesh), paint.regions, paint.faces);
   if (!mask.any()) throw std::invalid_argument(path + ": paint leaves no free face");
   return mask;
 }

@@ -143,6 +143,17 @@ std::vector<Eigen::VectorXd> dof_grid(const Eigen::VectorXd& lower, const Eigen:
   return cartesian(dof_axes(lower, upper, steps));
 }
 
+namespace {
+/// The unit-facet edge before the pair budget is consulted: 5 mm, or 1/15 of the target's smallest
+/// extent if smaller.
+double first_edge(const Mesh& target) {
+  Eigen::Vector3d extent = Eigen::Vector3d::Zero();
+  if (target.vertices.rows())
+    extent = (target.vertices.colwise().maxCoeff() - target.vertices.colwise().minCoeff()).transpose();
+  return extent.minCoeff() > 0.0 ? std::min(0.005, extent.minCoeff() / 15.0) : 0.005;
+}
+}  // namespace
+
 PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& free, const PlannerOptions& o) {
   check_value("edge", o.edge, true);
   check_value("d_max", o.d_max, true);
@@ -157,10 +168,7 @@ PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& f
   PlannerSetup s;
   s.mode = choose_mode(hand, o.constellation);
   const Eigen::VectorXd lo = hand.dof_lower(), hi = hand.dof_upper(), mid = (lo + hi) / 2.0;
-  Eigen::Vector3d extent = Eigen::Vector3d::Zero();
-  if (target.vertices.rows())
-    extent = (target.vertices.colwise().maxCoeff() - target.vertices.colwise().minCoeff()).transpose();
-  double edge = o.edge > 0.0 ? o.edge : (extent.minCoeff() > 0.0 ? std::min(0.005, extent.minCoeff() / 15.0) : 0.005);
+  double edge = o.edge > 0.0 ? o.edge : first_edge(target);
   const std::vector<Eigen::VectorXd> corners = corner_samples(lo, hi);
   if (o.d_max > 0.0) {
     s.d_max = o.d_max;
@@ -201,11 +209,12 @@ PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& f
 }
 
 struct GraspPlanner::State {
-  State(const Hand& h, const Mesh& t, const Mask& f, const PlannerOptions& o, const PlannerSetup& s, TargetIndex i)
-      : hand(h), target(t), free(f), options(o), setup(s), index(std::move(i)) {}
+  State(const Hand& h, FreeSurface f, std::vector<Obstacle> obs, const PlannerOptions& o, const PlannerSetup& s,
+        TargetIndex i)
+      : hand(h), surface(std::move(f)), obstacles(std::move(obs)), options(o), setup(s), index(std::move(i)) {}
   Hand hand;
-  Mesh target;
-  Mask free;
+  FreeSurface surface;
+  std::vector<Obstacle> obstacles;
   PlannerOptions options;
   PlannerSetup setup;
   TargetIndex index;
@@ -215,10 +224,32 @@ struct GraspPlanner::State {
   double seconds = 0.0;
 };
 
+namespace {
+Scene paint_scene(const Mask& free, const std::vector<Obstacle>& obstacles) {
+  Scene s;
+  s.occlusion.paint = free;
+  s.obstacles = obstacles;
+  return s;
+}
+}  // namespace
+
 GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& target, const Mask& free,
-                           const std::vector<Obstacle>& obstacles, const PlannerOptions& options) {
+                           const std::vector<Obstacle>& obstacles, const PlannerOptions& options)
+    : GraspPlanner(hand, target, paint_scene(free, obstacles), options) {}
+
+GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& scene, const PlannerOptions& options) {
   const auto t0 = Clock::now();
+  if (!(options.edge >= 0.0) || !std::isfinite(options.edge)) resolve_planner(hand, given, Mask(), options);  // "edge: ..."
+  // The free surface at half the first edge: the budget only makes the edge coarser, never finer.
+  FreeSurface surface = pairgrasp::free_surface(
+      given, scene.occlusion, 0.5 * (options.edge > 0.0 ? options.edge : first_edge(given)), options.threads);
+  const Mesh& target = surface.mesh;
+  const Mask& free = surface.free;
   const PlannerSetup setup = resolve_planner(hand, target, free, options);
+  std::vector<Obstacle> obstacles = scene.obstacles;
+  if (scene.occlusion.support)
+    obstacles.push_back(Obstacle{"support", support_box(*scene.occlusion.support, target,
+                                                        2.0 * setup.reach + setup.backoff + setup.edge)});
   PairIndexOptions io;
   io.d_max = setup.d_max;
   io.max_pairs = options.max_pairs;
@@ -248,21 +279,22 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& target, const Mask& fre
   });
   for (const std::exception_ptr& e : errors)
     if (e) std::rethrow_exception(e);
-  auto s = std::make_shared<State>(hand, target, free.size() ? free : Mask::Constant(target.faces.rows(), true),
-                                   options, setup, std::move(*index));
+  auto s = std::make_shared<State>(hand, std::move(surface), std::move(obstacles), options, setup, std::move(*index));
   AlignerOptions ao;
   ao.max_poses = options.max_poses;
   ao.threads = options.threads;
   s->aligner = std::make_unique<Aligner>(std::make_shared<const PairIndex>(s->index.index), ao);
   s->checker = std::move(checker);
-  s->reference = torque_reference(target);
+  s->reference = torque_reference(s->surface.mesh);
   s->seconds = seconds_since(t0);
   state_ = std::move(s);
 }
 
 const Hand& GraspPlanner::hand() const { return state_->hand; }
-const Mesh& GraspPlanner::target() const { return state_->target; }
-const Mask& GraspPlanner::free() const { return state_->free; }
+const Mesh& GraspPlanner::target() const { return state_->surface.mesh; }
+const Mask& GraspPlanner::free() const { return state_->surface.free; }
+const FreeSurface& GraspPlanner::free_surface() const { return state_->surface; }
+const std::vector<Obstacle>& GraspPlanner::obstacles() const { return state_->obstacles; }
 const PlannerSetup& GraspPlanner::setup() const { return state_->setup; }
 const PlannerOptions& GraspPlanner::options() const { return state_->options; }
 const TargetIndex& GraspPlanner::target_index() const { return state_->index; }

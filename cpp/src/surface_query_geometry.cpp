@@ -1,5 +1,5 @@
 // Geometric primitives, the flat AABB tree builder and surface sampling of
-// the surface queries, reachability, collision, closing and contacts.
+// the surface queries, the free surface, collision, closing and contacts.
 #include "surface_query_internal.hpp"
 
 #include <algorithm>

@@ -364,9 +364,9 @@ TEST(SurfaceQuery, BadInputThrows) {
   EXPECT_THROW(SurfaceQuery(Mesh{}), std::invalid_argument);
 }
 
-// ---------------------------------------------------------------- reachability masks
+// ---------------------------------------------------------------- per-face free masks (free_surface.hpp)
 
-#include <pairgrasp/reachability.hpp>
+#include <pairgrasp/free_surface.hpp>
 
 namespace {
 double face_coord(const Mesh& m, int f, int axis, bool max) {
@@ -382,7 +382,7 @@ Vector3d face_normal_of(const Mesh& m, int f) {
 }
 }  // namespace
 
-TEST(Reachability, SlabOccludesExactlyTheFacesWithinReach) {
+TEST(FaceMasks, SlabOccludesExactlyTheFacesWithinReach) {
   // A 0.1 m cube in 1 cm squares; a slab z in [0.03, 0.2] much wider than the cube cuts its top.
   const Mesh target = tmesh::box_mesh(Vector3d::Constant(-0.05), Vector3d::Constant(0.05), 10, "cube");
   const Mesh slab = tmesh::box_mesh(Vector3d(-0.2, -0.2, 0.03), Vector3d(0.2, 0.2, 0.2), 1, "slab");
@@ -401,7 +401,7 @@ TEST(Reachability, SlabOccludesExactlyTheFacesWithinReach) {
   }
 }
 
-TEST(Reachability, OpenOccluderOccludesByDistanceOnly) {
+TEST(FaceMasks, OpenOccluderOccludesByDistanceOnly) {
   const Mesh target = tmesh::box_mesh(Vector3d::Constant(-0.05), Vector3d::Constant(0.05), 10, "cube");
   Points V(4, 3);
   V << -0.2, -0.2, 0.03, 0.2, -0.2, 0.03, 0.2, 0.2, 0.03, -0.2, 0.2, 0.03;
@@ -422,7 +422,7 @@ TEST(Reachability, OpenOccluderOccludesByDistanceOnly) {
   EXPECT_FALSE(occluded_by(target, {plane}, d, start)[0]);
 }
 
-TEST(Reachability, VisibleFromMarksTheBackSideOccluded) {
+TEST(FaceMasks, VisibleFromMarksTheBackSideOccluded) {
   const Mesh target = tmesh::box_mesh(Vector3d::Constant(-0.05), Vector3d::Constant(0.05), 2, "cube");
   Points eye(1, 3);
   eye << 1.0, 0.0, 0.0;
@@ -438,7 +438,7 @@ TEST(Reachability, VisibleFromMarksTheBackSideOccluded) {
   }
 }
 
-TEST(Reachability, VisibleFromAccountsForSelfOcclusionAndOccluders) {
+TEST(FaceMasks, VisibleFromAccountsForSelfOcclusionAndOccluders) {
   // Two boxes in one mesh: the small one sits behind the big one seen from -x.
   const Mesh big = tmesh::box_mesh(Vector3d::Constant(-0.05), Vector3d::Constant(0.05), 1, "big");
   const Mesh small = tmesh::box_mesh(Vector3d(0.2, -0.02, -0.02), Vector3d(0.3, 0.02, 0.02), 1, "small");
@@ -460,7 +460,7 @@ TEST(Reachability, VisibleFromAccountsForSelfOcclusionAndOccluders) {
   }
 }
 
-TEST(Reachability, BadInputAndEmptyResultsThrow) {
+TEST(FaceMasks, BadInputAndEmptyResultsThrow) {
   const Mesh target = tmesh::box_mesh(Vector3d::Constant(-0.05), Vector3d::Constant(0.05), 1, "cube");
   const Mesh huge = tmesh::box_mesh(Vector3d::Constant(-1), Vector3d::Constant(1), 1, "huge");
   auto expect_msg = [](auto&& fn, const std::string& start) {

@@ -65,8 +65,20 @@ Mask apply_regions(const Mesh& mesh, const std::vector<PaintRegion>& regions, co
 /// apply_regions() starting from every face free.
 Mask apply_regions(const Mesh& mesh, const std::vector<PaintRegion>& regions);
 
+/// A paint file as read, its marks not yet applied: the face marks ("default", "free" and
+/// "occluded" lists) and the regions, which free_surface() applies at patch resolution.
+struct Paint {
+  Mask faces;                        ///< per face of the mesh, true = free
+  std::vector<PaintRegion> regions;  ///< applied in order over `faces`
+};
+
+/// Reads a paint file (models/README.md, "Paint file format") for `mesh` without applying its
+/// regions. Throws FileError as load_paint() does (an all-occluded result is not an error here).
+Paint read_paint(const std::string& path, const Mesh& mesh);
+
 /// Reads a paint file (models/README.md, "Paint file format") for `mesh` and returns its per-face
-/// free mask (size = mesh.faces.rows(), true = free).
+/// free mask (size = mesh.faces.rows(), true = free), regions tested at face centroids (whole
+/// faces; the planner applies them per patch through read_paint() and free_surface()).
 ///
 /// Throws FileError naming the file and the field for a missing or unreadable file, invalid JSON,
 /// a missing/unknown format or version, a face count other than the mesh's, an index out of range

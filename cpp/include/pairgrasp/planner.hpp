@@ -12,6 +12,7 @@
 #include <pairgrasp/aligner.hpp>
 #include <pairgrasp/candidates.hpp>
 #include <pairgrasp/collision.hpp>
+#include <pairgrasp/free_surface.hpp>
 #include <pairgrasp/hand.hpp>
 #include <pairgrasp/mesh.hpp>
 #include <pairgrasp/pair_index.hpp>
@@ -93,18 +94,39 @@ std::vector<std::vector<double>> dof_axes(const Eigen::VectorXd& lower, const Ei
 std::vector<Eigen::VectorXd> dof_grid(const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
                                       const Eigen::VectorXd& steps);
 
+/// What surrounds the target, in its frame: what covers its surface and what the hand must not touch.
+struct Scene {
+  /// Paint, regions, occluders, viewpoints and the support plane: the free surface.
+  Occlusion occlusion;
+  /// Meshes the hand must not touch (a table given as a mesh, a holder). A support plane is added
+  /// as one more ("support": support_box() with a margin of twice the hand's reach plus the
+  /// largest back-off), and occluders are not obstacles unless listed here too.
+  std::vector<Obstacle> obstacles;
+};
+
 /// Everything built once per hand and target.
 class GraspPlanner {
  public:
-  /// Resolves the options, tessellates and indexes the target's free faces, and builds the aligner
-  /// and the grasp checker (`obstacles` in the target frame). Throws std::invalid_argument for bad
-  /// options or masks, BudgetError when the pair budget cannot be met.
+  /// Resolves the options, finds the free surface (free_surface() at half the unit-facet edge: the
+  /// edge given, else 5 mm or 1/15 of the target's smallest extent), tessellates and indexes it,
+  /// and builds the aligner and the grasp checker (the scene's obstacles and support). Throws
+  /// std::invalid_argument for bad options or scene fields (named as in free_surface()),
+  /// BudgetError when the pair budget cannot be met.
+  GraspPlanner(const Hand& hand, const Mesh& target, const Scene& scene, const PlannerOptions& options = {});
+  /// A scene of a paint mask (per face; empty: all free) and obstacles.
   GraspPlanner(const Hand& hand, const Mesh& target, const Mask& free = Mask(),
                const std::vector<Obstacle>& obstacles = {}, const PlannerOptions& options = {});
 
   const Hand& hand() const;
+  /// The target planned on: the given one with faces split where the free surface changes
+  /// (free_surface().mesh; the given mesh itself when no mark divides a face).
   const Mesh& target() const;
+  /// Per face of target(): true = free.
   const Mask& free() const;
+  /// The free surface (the refined target, its mask, each face's source face).
+  const FreeSurface& free_surface() const;
+  /// The obstacles the hand is checked against (the scene's, then the support's box).
+  const std::vector<Obstacle>& obstacles() const;
   const PlannerSetup& setup() const;
   const PlannerOptions& options() const;
   const TargetIndex& target_index() const;
