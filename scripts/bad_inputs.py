@@ -317,6 +317,31 @@ def _(d):
     return plan(extra=["--occluder", "holder.obj"])
 
 
+@case("--support plane that cuts through the target", "--support: the plane cuts through the target")
+def _(d):
+    return plan(extra=["--support", "0.05"])
+
+
+@case("--support that leaves nothing free", "--support: no free face left")
+def _(d):
+    return plan(extra=["--support", "--occluder-distance", "0.2"])
+
+
+@case("--support plane not finite", "argument --support: expected finite numbers")
+def _(d):
+    return plan(extra=["--support", "0,0,nan,0,0,1"], status=2)
+
+
+@case("--support normal zero", "argument --support: the normal NX,NY,NZ is zero")
+def _(d):
+    return plan(extra=["--support", "0,0,0,0,0,0"], status=2)
+
+
+@case("--occluder-distance negative", "--occluder-distance")
+def _(d):
+    return plan(extra=["--support", "--occluder-distance", "-0.001"], status=2)
+
+
 # ---- paint files
 
 @case("paint file missing", "--paint: no such file: none.paint.json")

@@ -37,14 +37,34 @@ __all__ = ["SUMMARY_COLUMNS", "plan_batch"]
 SUMMARY_COLUMNS = ("target", "status", "error", "grasps", "force_closure", "best_epsilon", "seconds")
 # The hand's folder is shipped to every task; a spec lying in a large folder is refused.
 _HAND_FOLDER_LIMIT = 64 << 20
+def _support_value(support):
+    """``support`` as a task carries it: None, "auto", a height, or ((x, y, z), (nx, ny, nz))."""
+    if support is None or support is False:
+        return None
+    if support is True or support == "auto":
+        return "auto"
+    if isinstance(support, (int, float)) and not isinstance(support, bool):
+        if not math.isfinite(support):
+            raise ValueError(f"support: expected a finite height (m), got {support!r}")
+        return float(support)
+    try:
+        point, normal = support
+        point, normal = tuple(float(x) for x in point), tuple(float(x) for x in normal)
+    except (TypeError, ValueError):
+        raise ValueError(f"support: expected True, 'auto', a height (m) or (point, normal), got {support!r}") from None
+    if len(point) != 3 or len(normal) != 3 or not all(map(math.isfinite, point + normal)) or not any(normal):
+        raise ValueError(f"support: expected a finite point and a non-zero normal, got {support!r}")
+    return (point, normal)
+
+
 # PlanParams fields the `plan` command line sets itself (the rest go to the Planner as they are).
 _PLAN_ARGS = ("schedule", "step", "top", "seed", "threads", "time_limit", "edge", "rank")
 
 
 def plan_batch(hand, targets: Sequence, out, engine: str = "local", *, address: Optional[str] = None,
                workers: Optional[int] = None, retries: int = 2, pictures: int = 0, viewpoints=None,
-               obstacles: Sequence = (), scale: float = 1.0, progress: Optional[bool] = None,
-               **plan_options) -> List[dict]:
+               obstacles: Sequence = (), scale: float = 1.0, support=None, occluder_distance: float = 0.005,
+               progress: Optional[bool] = None, **plan_options) -> List[dict]:
     """Plans ``hand`` on every target mesh and writes ``out/<stem>/grasps.json`` (what ``pairgrasp
     plan`` writes, with ``pictures`` pictures) and ``out/summary.csv``.
 
@@ -58,7 +78,9 @@ def plan_batch(hand, targets: Sequence, out, engine: str = "local", *, address: 
             local Ray instance.
         workers: targets planned at once (default: every core, or the cluster's CPUs per task).
         retries: times a task whose worker process died is tried again.
-        viewpoints, obstacles, scale: as ``pairgrasp plan``'s, for every target.
+        viewpoints, obstacles, scale, occluder_distance: as ``pairgrasp plan``'s, for every target.
+        support: as :class:`pairgrasp.Planner`'s (``"auto"``: each target rests on the horizontal plane
+            through its lowest point; a height (m); or (point, normal)), for every target.
         progress: a progress bar over the targets on stderr (None: when stderr is a terminal).
         plan_options: PlanParams fields (``schedule``, ``step``, ``top``, ...). ``threads`` is per
             task; by default the cores are shared out among the local workers, 1 on Ray.
@@ -109,7 +131,8 @@ def plan_batch(hand, targets: Sequence, out, engine: str = "local", *, address: 
     shared = {"hand": _pack_hand(os.fspath(hand)),
               "obstacles": [_pack_file(os.fspath(o), "obstacles") for o in obstacles],
               "viewpoints": None if viewpoints is None else [[float(x) for x in v] for v in viewpoints],
-              "scale": float(scale), "pictures": int(pictures), "options": options}
+              "scale": float(scale), "pictures": int(pictures), "options": options,
+              "support": _support_value(support), "occluder_distance": float(occluder_distance)}
 
     os.makedirs(out, exist_ok=True)
     rows: Dict[str, dict] = {}
@@ -283,6 +306,7 @@ def _run_task(shared: dict, task: dict) -> dict:
                 hand=spec, target=_unpack(files["target"], os.path.join(tmp, "target"), names),
                 paint=_unpack(files["paint"], os.path.join(tmp, "paint"), names) if files["paint"] else None,
                 occluder=None, viewpoint=shared["viewpoints"], scale=shared["scale"],
+                support=shared["support"], occluder_distance=shared["occluder_distance"],
                 obstacle=[_unpack(o, os.path.join(tmp, f"obstacle{k}"), names)
                           for k, o in enumerate(shared["obstacles"])] or None,
                 **{k: options.pop(k, getattr(PlanParams, k)) for k in _PLAN_ARGS})

@@ -80,10 +80,17 @@ def _planner_from_args(args, names=None, **extra):
         params["edge"] = args.edge
     params.update(extra)
     viewpoints = np.asarray(args.viewpoint, float).reshape(-1, 3) if args.viewpoint else None
-    planner = pg.Planner(args.hand, target, paint=args.paint,
-                         occluders=[pg.load_mesh(o, scale=args.scale) for o in (args.occluder or [])],
-                         viewpoints=viewpoints,
-                         obstacles=[pg.load_mesh(o, scale=args.scale) for o in (args.obstacle or [])], **params)
+    try:
+        planner = pg.Planner(args.hand, target, paint=args.paint,
+                             occluders=[pg.load_mesh(o, scale=args.scale) for o in (args.occluder or [])],
+                             viewpoints=viewpoints, support=args.support, occluder_distance=args.occluder_distance,
+                             obstacles=[pg.load_mesh(o, scale=args.scale) for o in (args.obstacle or [])], **params)
+    except ValueError as e:
+        if str(e).startswith("support:"):   # name the option as typed
+            raise ValueError("--" + str(e)) from None
+        if str(e).startswith("no free face left") and args.support is not None:
+            raise ValueError(f"--support: {e}") from None
+        raise
     record = (lambda path: names.get(path, path)) if names else (lambda path: path)
     planner.inputs["hand_spec"] = record(planner.inputs["hand_spec"])
     planner.inputs["target"] = record(args.target)
@@ -193,6 +200,7 @@ def _cmd_batch(args) -> int:
     rows = plan_batch(args.hand, args.targets, args.output, engine=args.engine, address=args.address,
                       workers=args.workers, retries=args.retries, pictures=args.pictures,
                       viewpoints=args.viewpoint, obstacles=args.obstacle or (), scale=args.scale,
+                      support=args.support, occluder_distance=args.occluder_distance,
                       progress=None if not args.quiet else False, **options)
     width = max(len(r["target"]) for r in rows)
     lines = [f"{'target':<{width}s}  {'status':<7s}  {'grasps':>6s}  {'fc':>3s}  {'epsilon':>8s}  {'seconds':>7s}"]
@@ -344,6 +352,35 @@ def _positive_float(text: str) -> float:
     return v
 
 
+def _nonnegative_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not np.isfinite(v) or v < 0:
+        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text!r}")
+    return v
+
+
+def _support(text: str):
+    """--support's value: "auto", a height (m), or (point, normal) from six comma-separated numbers."""
+    if text == "auto":
+        return text
+    try:
+        v = [float(x) for x in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected Z or X,Y,Z,NX,NY,NZ (numbers), got {text!r}") from None
+    if len(v) not in (1, 6):
+        raise argparse.ArgumentTypeError(f"expected Z or X,Y,Z,NX,NY,NZ (1 or 6 numbers), got {len(v)}")
+    if not all(math.isfinite(x) for x in v):
+        raise argparse.ArgumentTypeError(f"expected finite numbers, got {text!r}")
+    if len(v) == 1:
+        return v[0]
+    if not any(v[3:]):
+        raise argparse.ArgumentTypeError("the normal NX,NY,NZ is zero")
+    return (tuple(v[:3]), tuple(v[3:]))
+
+
 def _count(low: int):
     def parse(text: str) -> int:
         try:
@@ -371,6 +408,12 @@ def _add_target_options(p, threads_help="worker threads (default 0: every core)"
     p.add_argument("--viewpoint", action="append", nargs=3, type=float, metavar=("X", "Y", "Z"),
                    help="point (m) from which free faces must be visible (repeatable)")
     p.add_argument("--obstacle", action="append", metavar="MESH", help="mesh the hand must not touch (repeatable)")
+    p.add_argument("--support", nargs="?", const="auto", type=_support, metavar="Z|X,Y,Z,NX,NY,NZ",
+                   help="the target rests on a plane (a table), an obstacle and an occluder at once: alone, the "
+                   "horizontal plane through its lowest point; Z: the plane z = Z (m); six numbers: a point and "
+                   "the upward normal")
+    p.add_argument("--occluder-distance", type=_nonnegative_float, default=0.005, metavar="M",
+                   help="the surface within M metres of an occluder or the support is occluded (default 0.005)")
     p.add_argument("--schedule", choices=("grid", "fast"), default="fast", help="DOF schedule (default fast)")
     p.add_argument("--step", type=_positive_float, help="DOF sampling step (rad; default the hand's)")
     p.add_argument("--edge", type=_positive_float, help="unit-facet edge h (m; default automatic)")

@@ -292,3 +292,47 @@ def _load_planned(path, hand=None, target=None) -> _Planned:
                          f"this one has {len(target.faces)}")
     return _Planned(grasps=gf, hand=hand, target=target, scale=scale, base=base)
 
+
+
+def recorded_support(inputs: dict):
+    """The :class:`pairgrasp.SupportPlane` a grasps.json's ``inputs.support`` records, or None.
+    Raises FileError for a malformed record."""
+    from . import _core
+
+    s = inputs.get("support")
+    if s is None:
+        return None
+    try:
+        return _core.SupportPlane(np.asarray(s["point"], float).reshape(3), np.asarray(s["normal"], float).reshape(3))
+    except (KeyError, TypeError, ValueError) as e:
+        raise FileError(f"inputs.support: expected {{'point': [x, y, z], 'normal': [x, y, z]}}, got {s!r} ({e})") \
+            from None
+
+
+def recorded_free_surface(planned: _Planned, path: str, notes: List[str]):
+    """The plan's free surface rebuilt from the recorded paint file, occluders, viewpoints and support
+    at the recorded resolution: (pairgrasp.FreeSurface, occluder meshes). A difference from the
+    recorded count of free faces, or an input that was not recorded, is added to ``notes``."""
+    from . import _core
+
+    inputs, target, base = planned.grasps.inputs, planned.target, planned.base
+    faces = regions = None
+    if inputs.get("paint") is not None:
+        faces, regions = _core.read_paint(_resolve(inputs["paint"], base, f"{path}: inputs.paint"), target)
+    occ = []
+    for k, o in enumerate(inputs.get("occluders") or []):
+        if o == "<mesh>":
+            notes.append(f"inputs.occluders[{k}] was an in-memory mesh: not shown, the surface near it not marked")
+            continue
+        occ.append(_core.load_mesh(_resolve(o, base, f"{path}: inputs.occluders[{k}]"), scale=planned.scale))
+    vp = inputs.get("viewpoints")
+    resolution = (inputs.get("free_surface") or {}).get("resolution", float("inf"))
+    surface = _core.free_surface(target, paint=faces, regions=regions or None, occluders=occ,
+                                 distance=float(inputs.get("occluder_distance", 0.005)),
+                                 viewpoints=None if vp is None else np.asarray(vp, float).reshape(-1, 3),
+                                 support=recorded_support(inputs), resolution=float(resolution))
+    want, got = inputs.get("free_faces"), int(np.count_nonzero(surface.free))
+    if isinstance(want, int) and want != got:
+        notes.append(f"the plan had {want} free faces of {len(surface.mesh.faces)}, the recorded inputs give {got}"
+                     + (" (a free mask given as an array is not recorded)" if "paint" not in inputs else ""))
+    return surface, occ

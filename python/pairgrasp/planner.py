@@ -74,6 +74,7 @@ rank k uses ``seed + k``.
 from __future__ import annotations
 
 import itertools
+import math
 import os
 import sys
 import time
@@ -161,6 +162,32 @@ def _as_mesh(value, name):
     raise ValueError(f"{name}: expected a Mesh or a mesh file path, got {type(value).__name__}")
 
 
+def support_plane(support, target) -> Optional["_core.SupportPlane"]:
+    """The :class:`pairgrasp.SupportPlane` a ``support`` argument names for ``target``: None (no
+    support), True or ``"auto"`` (the horizontal plane through the target's lowest point), a number
+    (the horizontal plane at that height, m), a (point, normal) pair, or a SupportPlane. ValueError
+    ("support: ...") for anything else or a non-finite plane."""
+    if support is None or support is False:
+        return None
+    if isinstance(support, _core.SupportPlane):
+        return support
+    if support is True or (isinstance(support, str) and support == "auto"):
+        return _core.SupportPlane.below(target)
+    if isinstance(support, (int, float, np.floating, np.integer)) and not isinstance(support, bool):
+        z = float(support)
+        if not math.isfinite(z):
+            raise ValueError(f"support: expected a finite height (m), got {support!r}")
+        return _core.SupportPlane((0.0, 0.0, z), (0.0, 0.0, 1.0))
+    try:
+        point, normal = support
+        return _core.SupportPlane(np.asarray(point, float).reshape(3), np.asarray(normal, float).reshape(3))
+    except (TypeError, ValueError) as e:
+        if str(e).startswith("support:"):
+            raise
+        raise ValueError(f"support: expected True, 'auto', a height (m), (point, normal) or a SupportPlane, "
+                         f"got {support!r}") from None
+
+
 class Planner:
     """Plans grasps of one hand on one target.
 
@@ -168,10 +195,14 @@ class Planner:
         hand: a :class:`pairgrasp.Hand` or the path of a hand spec.
         target: a :class:`pairgrasp.Mesh` or the path of a mesh (metres).
         paint: free-face mask: a paint file path or an (F,) bool array (None: every face free).
-        occluders: meshes (or paths) in the target frame; faces within ``occluder_distance`` of one
-            are occluded.
-        viewpoints: (V,3) points (m); only faces seen from one of them stay free.
+        occluders: meshes (or paths) in the target frame; the surface within ``occluder_distance`` of
+            one (or of the support) is occluded, decided per patch of half the unit-facet edge
+            (:func:`pairgrasp.free_surface`), so ``target`` and ``free`` are the given mesh with faces
+            split where the mark changes.
+        viewpoints: (V,3) points (m); only the surface seen from one of them stays free.
         obstacles: meshes (or paths) the hand must not touch (a table, the hand holding the target).
+        support: the plane the target rests on (:func:`support_plane`: True for the horizontal plane
+            through its lowest point): an obstacle and an occluder at once.
         params: :class:`PlanParams`; keyword arguments override its fields.
 
     The target index, aligner and grasp checker are built once, in the constructor; :meth:`plan`
@@ -183,33 +214,57 @@ class Planner:
     """
 
     def __init__(self, hand, target, paint=None, occluders=(), viewpoints=None, obstacles=(),
-                 params: Optional[PlanParams] = None, occluder_distance: float = 0.005, **overrides):
+                 params: Optional[PlanParams] = None, occluder_distance: float = 0.005, support=None, **overrides):
         t0 = time.perf_counter()
         self.params = with_overrides(PlanParams, params, overrides, "planner")
         p = self.params
         self.hand = hand if isinstance(hand, _core.Hand) else _core.load_hand(os.fspath(hand))
-        self.target = _as_mesh(target, "target")
+        given = _as_mesh(target, "target")
         self.inputs = {"hand": self.hand.name, "hand_spec": os.fspath(hand) if not isinstance(hand, _core.Hand)
                        else self.hand.spec_path,
                        "target": os.fspath(target) if not isinstance(target, _core.Mesh) else "<mesh>",
-                       "target_faces": int(len(self.target.faces))}
-        free = self._free_mask(paint, occluders, viewpoints, occluder_distance)
-        self.target, free = self._simplified(free)
-        self.free = free
+                       "target_faces": int(len(given.faces))}
+        face_paint, regions = self._paint(paint, given)
+        mesh, face_paint = self._simplified(given, face_paint)
+        occ = [_as_mesh(o, "occluder") for o in occluders]
+        if occ:
+            self.inputs["occluders"] = [os.fspath(o) if not isinstance(o, _core.Mesh) else "<mesh>" for o in occluders]
+        vp = None
+        if viewpoints is not None:
+            vp = np.asarray(viewpoints, float).reshape(-1, 3)
+            self.inputs["viewpoints"] = _round(vp)
+        plane = support_plane(support, given)
+        if plane is not None:
+            self.inputs["support"] = {"point": _round(plane.point), "normal": _round(plane.normal)}
+        if occ or plane is not None:
+            self.inputs["occluder_distance"] = float(occluder_distance)
         self.obstacles = [_as_mesh(o, "obstacle") for o in obstacles]
         if obstacles:
             self.inputs["obstacles"] = [os.fspath(o) if not isinstance(o, _core.Mesh) else "<mesh>" for o in obstacles]
-        self.inputs["free_faces"] = int(free.sum())
         # The parameters fixed by the index, resolved in C++ (the target's scale is checked against
-        # the hand's span there before anything large is built).
+        # the hand's span there before anything large is built), and the free surface at half the
+        # unit-facet edge.
         options = dict(edge=p.edge or 0.0, d_max=p.d_max or 0.0, max_pairs=int(p.max_pairs),
                        constellation=p.constellation, spacing=p.spacing or 0.0,
                        max_area_samples=int(p.max_area_samples),
                        depth_tolerance=-1.0 if p.depth_tolerance is None else float(p.depth_tolerance),
                        gap=float(p.gap), backoff=-1.0 if p.backoff is None else float(p.backoff),
                        max_poses=max(replace(p, schedule=s).poses()[1] for s in ("grid", "fast")), threads=p.threads)
-        warn_if_open(self.target, self.target.source or self.inputs["target"])
-        self.core = _core.GraspPlanner(self.hand, self.target, free, self.obstacles, **options)
+        warn_if_open(mesh, mesh.source or self.inputs["target"])
+        try:
+            self.core = _core.GraspPlanner(self.hand, mesh, face_paint, self.obstacles, regions=regions,
+                                           occluders=occ, occluder_distance=float(occluder_distance),
+                                           viewpoints=vp, support=plane, **options)
+        except ValueError as e:
+            if "paint" in self.inputs and str(e).endswith("covered by the paint"):
+                raise ValueError(f"{self.inputs['paint']}: paint leaves no free face") from None
+            raise
+        surface = self.core.free_surface
+        self.target, self.free, self.support = self.core.target, np.asarray(self.core.free, bool), plane
+        self.inputs["free_faces"] = int(self.free.sum())
+        if surface.split_faces:
+            self.inputs["free_surface"] = {"faces": int(len(self.target.faces)), "split_faces": int(surface.split_faces),
+                                           "resolution": float(surface.resolution)}
         setup = self.core.setup
         self.mode, self.edge, self.d_max = setup.mode, float(setup.edge), float(setup.d_max)
         self.spacing = float(setup.spacing) if self.mode == "area" else None
@@ -220,37 +275,27 @@ class Planner:
 
     # ---------------------------------------------------------------- set-up helpers
 
-    def _free_mask(self, paint, occluders, viewpoints, occluder_distance) -> np.ndarray:
-        mesh = self.target
-        free = None
-        if paint is not None:
-            if isinstance(paint, (str, os.PathLike)):
-                free = np.asarray(_core.load_paint(os.fspath(paint), mesh), bool)
-                self.inputs["paint"] = os.fspath(paint)
-            else:
-                free = np.asarray(paint)
-                if free.dtype != bool or free.shape != (len(mesh.faces),):
-                    raise ValueError(f"paint: expected a ({len(mesh.faces)},) bool mask or a paint file, "
-                                     f"got {free.dtype} array of shape {free.shape}")
-                if not free.any():
-                    raise ValueError("paint: no free face left (the mask is all False)")
-        occ = [_as_mesh(o, "occluder") for o in occluders]
-        if occ:
-            self.inputs["occluders"] = [os.fspath(o) if not isinstance(o, _core.Mesh) else "<mesh>" for o in occluders]
-            free = _core.occluded_by(mesh, occ, occluder_distance, free)
-        if viewpoints is not None:
-            vp = np.asarray(viewpoints, float).reshape(-1, 3)
-            self.inputs["viewpoints"] = _round(vp)
-            free = _core.visible_from(mesh, vp, free, occ)
-        if free is None:
-            free = np.ones(len(mesh.faces), bool)
-        return np.asarray(free, bool)
+    def _paint(self, paint, mesh):
+        """(per-face marks or None, regions or None) of ``paint``: a paint file or an (F,) bool array."""
+        if paint is None:
+            return None, None
+        if isinstance(paint, (str, os.PathLike)):
+            faces, regions = _core.read_paint(os.fspath(paint), mesh)
+            self.inputs["paint"] = os.fspath(paint)
+            return np.asarray(faces, bool), (regions or None)
+        free = np.asarray(paint)
+        if free.dtype != bool or free.shape != (len(mesh.faces),):
+            raise ValueError(f"paint: expected a ({len(mesh.faces)},) bool mask or a paint file, "
+                             f"got {free.dtype} array of shape {free.shape}")
+        if not free.any():
+            raise ValueError("paint: no free face left (the mask is all False)")
+        return free, None
 
-    def _simplified(self, free):
+    def _simplified(self, mesh, free):
         """The target simplified when it has more than ``max_faces`` faces (recorded in
-        ``inputs.target_simplified``), with the free mask carried over: each simplified face takes the
-        mask of the original face nearest its centre."""
-        p, mesh = self.params, self.target
+        ``inputs.target_simplified``), with the per-face paint carried over: each simplified face takes
+        the mark of the original face nearest its centre."""
+        p = self.params
         if p.max_faces is None:
             return mesh, free
         small, info = simplify_mesh(mesh, p.max_faces, 0.25 * (p.edge or 0.005))
@@ -259,11 +304,11 @@ class Planner:
         self.inputs["target_simplified"] = info.to_dict()
         if small is mesh:
             return mesh, free
-        if not free.all():
+        if free is not None and not free.all():
             centres = np.asarray(small.vertices)[np.asarray(small.faces)].mean(axis=1)
             free = free[np.asarray(_core.SurfaceQuery(mesh).closest(centres).faces)]
         else:
-            free = np.ones(len(small.faces), bool)
+            free = None
         return small, free
 
     # ---------------------------------------------------------------- scheduling

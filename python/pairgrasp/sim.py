@@ -759,7 +759,9 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
     volume times the density (:class:`Simulator`).
 
     The hand, target, obstacles and occluders are those recorded in the file's ``inputs`` (paths
-    relative to the current folder or to the file's folder), unless ``hand`` / ``target`` are given.
+    relative to the current folder or to the file's folder), unless ``hand`` / ``target`` are given;
+    a recorded ``support`` plane becomes a box (:data:`SUPPORT_MARGIN` beyond the target on every
+    side) that stands under the target while the hand closes and goes away with the obstacles.
     Nothing is written unless every grasp was simulated.
 
     Raises:
@@ -768,7 +770,7 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
             bad parameters.
         ImportError: MuJoCo is not installed.
     """
-    from .grasps_file import _load_planned, _resolve, write_grasps
+    from .grasps_file import _load_planned, _resolve, recorded_support, write_grasps
 
     import_mujoco()
     path = os.fspath(path)
@@ -782,6 +784,9 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
     for key in ("obstacles", "occluders"):
         for k, o in enumerate(inputs.get(key, []) or []):
             others.append(_core.load_mesh(_resolve(o, base, f"{path}: inputs.{key}[{k}]"), scale=scale))
+    support = recorded_support(inputs)
+    if support is not None:   # the table the target stood on while the hand closed, taken away for the load
+        others.append(_core.support_box(support, target, SUPPORT_MARGIN))
     grasps = gf.grasps if top is None else gf.grasps[:top]
     sim = Simulator(hand, target, others, params=params, mass=mass, **overrides)
     per_grasp = []
@@ -817,6 +822,10 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
     return SimReport(results=results, ranks=[g.rank for g in grasps], epsilons=[g.epsilon for g in grasps],
                      counts=sim.counts, params=sim.params, path=path, picture=out_png, trials=per_grasp,
                      target_mass=sim.target_mass, target_mass_source=sim.target_mass_source)
+
+
+#: How far (m) the simulated support extends beyond the target's footprint on every side, and how deep.
+SUPPORT_MARGIN = 0.15
 
 
 def verify_grasps(path, top: int, trials: int = 4, seed: int = 0, progress=None, **kwargs) -> List[int]:

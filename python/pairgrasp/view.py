@@ -154,31 +154,6 @@ def _segments(points: np.ndarray, directions: np.ndarray, length: float, radius:
     return v, f
 
 
-def _free_mask(inputs: dict, target, base: str, path: str, scale: float, notes: List[str]):
-    """The plan's free mask, rebuilt from the recorded paint file, occluders and viewpoints."""
-    nfaces = len(target.faces)
-    free = None
-    if inputs.get("paint") is not None:
-        free = np.asarray(_core.load_paint(_resolve(inputs["paint"], base, f"{path}: inputs.paint"), target), bool)
-    occ = []
-    for k, o in enumerate(inputs.get("occluders") or []):
-        if o == "<mesh>":
-            notes.append(f"inputs.occluders[{k}] was an in-memory mesh: not shown, its faces not marked")
-            continue
-        occ.append(_core.load_mesh(_resolve(o, base, f"{path}: inputs.occluders[{k}]"), scale=scale))
-    if occ:
-        free = _core.occluded_by(target, occ, 0.005, free)
-    if inputs.get("viewpoints") is not None:
-        vp = np.asarray(inputs["viewpoints"], float).reshape(-1, 3)
-        free = _core.visible_from(target, vp, free, occ)
-    free = np.ones(nfaces, bool) if free is None else np.asarray(free, bool)
-    want = inputs.get("free_faces")
-    if isinstance(want, int) and want != int(free.sum()):
-        notes.append(f"the plan had {want} free faces of {nfaces}, the recorded inputs give {int(free.sum())}"
-                     + (" (a free mask given as an array is not recorded)" if "paint" not in inputs else ""))
-    return free, occ
-
-
 def _summary(g, sim: Optional[dict]) -> str:
     text = (f"rank {g.rank}: ε {g.epsilon:.4f}, force closure {'yes' if g.force_closure else 'no'}, "
             f"Q_A {g.alignment_quality:.3f}, {g.votes} votes, penetration {1000 * g.penetration_depth:.2f} mm, "
@@ -199,16 +174,18 @@ def load_scene(path, hand=None, target=None) -> Scene:
         ValueError: a hand other than the one the grasps were planned for, or a target with another
             number of faces.
     """
-    from .grasps_file import _load_planned
+    from .grasps_file import _load_planned, recorded_free_surface, recorded_support
 
     path = os.fspath(path)
     given = target
     planned = _load_planned(path, hand, target)
-    gf, hand, target, scale, base = planned.grasps, planned.hand, planned.target, planned.scale, planned.base
+    gf, hand, scale, base = planned.grasps, planned.hand, planned.scale, planned.base
     inputs = gf.inputs
     target_name = given if given is not None else inputs.get("target")
     notes: List[str] = []
-    free, occluders = _free_mask(inputs, target, base, path, scale, notes)
+    surface, occluders = recorded_free_surface(planned, path, notes)
+    target, free = surface.mesh, np.asarray(surface.free, bool)
+    support = recorded_support(inputs)
 
     tv = np.asarray(target.vertices, float)
     tf = np.asarray(target.faces, np.int64)
@@ -234,6 +211,9 @@ def load_scene(path, hand=None, target=None) -> Scene:
     for k, m in enumerate(occluders):
         parts.append(Part(f"occluder{k + 1}", np.asarray(m.vertices, float), np.asarray(m.faces, np.int64), eye,
                           _OCCLUDER))
+    if support is not None:
+        m = _core.support_box(support, planned.target, 0.5 * size)
+        parts.append(Part("support", np.asarray(m.vertices, float), np.asarray(m.faces, np.int64), eye, _OBSTACLE))
 
     edge = gf.parameters.get("edge")
     edge = float(edge) if isinstance(edge, (int, float)) and edge > 0 else size / 40.0
