@@ -2,9 +2,15 @@
 // grid schedule (every DOF sampled every --step radians), written as a grasps.json that
 // `pairgrasp simulate` and `pairgrasp view` read.
 //
-//   plan_grasps --hand SPEC --target MESH [--paint FILE] [--step RAD] [--top K] [--seed S]
+//   plan_grasps --hand SPEC --target MESH [--paint FILE] [--support auto|Z] [--obstacle MESH]...
+//               [--occluder MESH]... [--step RAD] [--top K] [--seed S]
 //               [--rank enclosure|epsilon|load|robust] [--threads N] -o FILE
+//
+// --support: the target rests on a horizontal plane (auto: through its lowest point; Z: at height Z m),
+// an obstacle and an occluder at once. --obstacle: a mesh the hand must not touch; --occluder: a mesh
+// covering the surface within 5 mm (give a table mesh as both).
 #include <pairgrasp/error.hpp>
+#include <pairgrasp/free_surface.hpp>
 #include <pairgrasp/hand.hpp>
 #include <pairgrasp/mesh.hpp>
 #include <pairgrasp/paint.hpp>
@@ -25,7 +31,8 @@ namespace pg = pairgrasp;
 namespace {
 
 struct Args {
-  std::string hand, target, paint, out;
+  std::string hand, target, paint, out, support;  // support: "", "auto" or a height (m)
+  std::vector<std::string> obstacles, occluders;
   double step = 0.0;  // 0: the hand's steps
   int top = 10;
   unsigned long seed = 0;
@@ -35,8 +42,9 @@ struct Args {
 
 [[noreturn]] void usage(const std::string& why) {
   std::fprintf(stderr,
-               "plan_grasps: %s\nusage: plan_grasps --hand SPEC --target MESH [--paint FILE] [--step RAD] [--top K] "
-               "[--seed S] [--rank enclosure|epsilon|load|robust] [--threads N] -o FILE\n",
+               "plan_grasps: %s\nusage: plan_grasps --hand SPEC --target MESH [--paint FILE] [--support auto|Z] "
+               "[--obstacle MESH]... [--occluder MESH]... [--step RAD] [--top K] [--seed S] "
+               "[--rank enclosure|epsilon|load|robust] [--threads N] -o FILE\n",
                why.c_str());
   std::exit(2);
 }
@@ -57,6 +65,9 @@ Args parse(int argc, char** argv) {
     if (f == "--hand") a.hand = v;
     else if (f == "--target") a.target = v;
     else if (f == "--paint") a.paint = v;
+    else if (f == "--support") a.support = std::string(v) == "auto" ? v : (number(f, v), std::string(v));
+    else if (f == "--obstacle") a.obstacles.push_back(v);
+    else if (f == "--occluder") a.occluders.push_back(v);
     else if (f == "-o" || f == "--out") a.out = v;
     else if (f == "--step") a.step = number(f, v);
     else if (f == "--top") a.top = static_cast<int>(number(f, v));
@@ -116,10 +127,22 @@ int main(int argc, char** argv) {
     const auto t0 = std::chrono::steady_clock::now();
     const pg::Hand hand = pg::Hand::load(args.hand);
     const pg::Mesh target = pg::load_mesh(args.target);
-    const pg::Mask free = args.paint.empty() ? pg::Mask() : pg::load_paint(args.paint, target);
+    // The scene: paint (faces and regions, marked per surface patch), occluders, obstacles, support.
+    pg::Scene scene;
+    if (!args.paint.empty()) {
+      pg::Paint paint = pg::read_paint(args.paint, target);
+      scene.occlusion.paint = std::move(paint.faces);
+      scene.occlusion.regions = std::move(paint.regions);
+    }
+    for (const std::string& path : args.occluders) scene.occlusion.occluders.push_back(pg::load_mesh(path));
+    for (const std::string& path : args.obstacles) scene.obstacles.push_back({path, pg::load_mesh(path)});
+    if (!args.support.empty()) {
+      scene.occlusion.support = pg::SupportPlane::below(target);
+      if (args.support != "auto") scene.occlusion.support->point = {0.0, 0.0, std::strtod(args.support.c_str(), nullptr)};
+    }
     pg::PlannerOptions po;
     po.threads = args.threads;
-    const pg::GraspPlanner planner(hand, target, free, {}, po);
+    const pg::GraspPlanner planner(hand, target, scene, po);
     const std::vector<Eigen::VectorXd> samples =
         pg::dof_grid(hand.dof_lower(), hand.dof_upper(), planner.steps(args.step));
     pg::PlanOptions o;
@@ -180,8 +203,25 @@ int main(int argc, char** argv) {
     doc << "{\n  \"format\": \"pairgrasp.grasps/1\",\n"
         << "  \"inputs\": {\"hand\": " << quoted(hand.name()) << ", \"hand_spec\": " << quoted(args.hand)
         << ", \"target\": " << quoted(args.target) << ", \"target_faces\": " << target.faces.rows()
-        << (args.paint.empty() ? "" : ", \"paint\": " + quoted(args.paint))
-        << ", \"free_faces\": " << planner.free().count() << "},\n"
+        << (args.paint.empty() ? "" : ", \"paint\": " + quoted(args.paint));
+    auto names = [&](const char* key, const std::vector<std::string>& paths) {
+      if (paths.empty()) return;
+      doc << ", " << quoted(key) << ": [";
+      for (std::size_t i = 0; i < paths.size(); ++i) doc << (i ? ", " : "") << quoted(paths[i]);
+      doc << "]";
+    };
+    names("occluders", args.occluders);
+    names("obstacles", args.obstacles);
+    const pg::Occlusion& occ = scene.occlusion;
+    if (occ.support)
+      doc << ", \"support\": {\"point\": " << list(occ.support->point) << ", \"normal\": " << list(occ.support->normal)
+          << "}";
+    if (occ.support || !occ.occluders.empty()) doc << ", \"occluder_distance\": " << num(occ.distance);
+    const pg::FreeSurface& fs = planner.free_surface();
+    if (fs.split_faces)
+      doc << ", \"free_surface\": {\"faces\": " << fs.mesh.faces.rows() << ", \"split_faces\": " << fs.split_faces
+          << ", \"resolution\": " << num(fs.resolution) << "}";
+    doc << ", \"free_faces\": " << planner.free().count() << "},\n"
         << "  \"parameters\": {\"schedule\": \"grid\", \"step\": " << (args.step > 0 ? num(args.step) : "null")
         << ", \"poses_per_sample\": " << o.poses_per_sample << ", \"top\": " << o.top << ", \"seed\": " << o.seed
         << ", \"rank\": " << quoted(pg::to_string(o.rank)) << ", \"robust_samples\": " << o.robust_samples
