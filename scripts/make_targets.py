@@ -8,6 +8,11 @@ fingers ~12 cm long), like the targets of the paper's Figure 6:
   mug.stl    a hollow mug with a rounded rim and a ring handle (a few thousand faces)
   flask.stl  a solid Erlenmeyer flask with a neck, a bead lip and a mouth (the most faces)
 
+and an occluder for the paper's other scene, an object held by another hand:
+
+  holder.stl a hand-like holder (a palm, two fingers wrapping one corner and a thumb) around the
+             top of box.stl, in box.stl's frame: `--occluder` and `--obstacle` at once
+
 All are in metres, stand on z = 0 with their symmetry axis along z, and are watertight: closed,
 consistently wound with outward normals, free of self-intersections (the mug's parts are joined
 with manifold3d's exact booleans). Each gets a paint file `<name>.paint.json` (format described in
@@ -67,6 +72,16 @@ FLASK = dict(
     mouth_radius=0.010,    # mouth: a cylindrical opening of this radius ...
     mouth_depth=0.025,     # ... and depth, down from the top
     segments=80,           # around the axis
+)
+
+# The holder: boxes (x0, x1, y0, y1, z0, z1) around the top of BOX, which spans x, y in [-0.03, 0.03]
+# and z in [0, 0.12]; each touches the box's surface (the palm, the fingers, the thumb).
+HOLDER = dict(
+    palm=(0.030, 0.048, -0.040, 0.040, 0.072, 0.124),
+    fingers=[  # each along the +y face, then around the corner along the -x face
+        ((-0.043, 0.044, 0.030, 0.045, zc - 0.008, zc + 0.008),
+         (-0.045, -0.030, -0.012, 0.041, zc - 0.007, zc + 0.007)) for zc in (0.084, 0.106)],
+    thumb=(-0.004, 0.044, -0.045, -0.030, 0.092, 0.108),
 )
 
 # Paint: what a gripper may not touch.
@@ -220,6 +235,19 @@ def make_flask():
 
 
 # ----------------------------------------------------------------------------- validation
+def make_holder():
+    def block(x0, x1, y0, y1, z0, z1):
+        return m3.Manifold.cube((x1 - x0, y1 - y0, z1 - z0)).translate((x0, y0, z0))
+
+    parts = [block(*HOLDER["palm"]), block(*HOLDER["thumb"])]
+    for along_y, along_x in HOLDER["fingers"]:
+        parts += [block(*along_y), block(*along_x)]
+    man = parts[0]
+    for p in parts[1:]:
+        man = man + p
+    return _manifold_mesh(man)
+
+
 def check_mesh(name, v, f):
     """Refuse to write a mesh that is not watertight, outward, clean after float32 rounding."""
     v32 = v.astype(np.float32).astype(np.float64)
@@ -282,8 +310,8 @@ def _centroids(v, f):
 def build():
     """All output files as {relative name: bytes}, plus a summary per target."""
     out, summary = {}, {}
-    box, mug, flask = make_box(), make_mug(), make_flask()
-    for name, (v, f) in (("box", box), ("mug", mug), ("flask", flask)):
+    box, mug, flask, holder = make_box(), make_mug(), make_flask(), make_holder()
+    for name, (v, f) in (("box", box), ("mug", mug), ("flask", flask), ("holder", holder)):
         vol = check_mesh(name, v, f)
         out[f"{name}.stl"] = stl_bytes(v, f, name)
         ext = np.ptp(v, axis=0)
