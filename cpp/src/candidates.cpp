@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <functional>
 #include <iterator>
+#include <limits>
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
@@ -79,15 +80,30 @@ class Settler {
   int checks = 0;
 
   // Settles `c` into `out` (settled, start_pose, start_dofs, backoff).
-  void run(const Candidate& c, EvaluatedCandidate& out) {
-    out.start_pose = c.pose;
-    out.start_dofs = c.dofs;
+  void run(const Candidate& aligned, EvaluatedCandidate& out) {
+    out.start_pose = aligned.pose;
+    out.start_dofs = aligned.dofs;
     out.settled = Settled::Dropped;
+    // On a support plane the hand is first lifted along its normal out of it (the least move that
+    // clears it, which for a grasp from above is a stand-off along the approach and for one from
+    // the side keeps the palm facing the side); a hand that would have to rise more than the
+    // largest back-off is dropped before any collision check.
+    Candidate c = aligned;
+    bool moved = false;
+    if (I_.options.support) {
+      // Clear by the contact gap: a link touching an obstacle is pruned.
+      const double lift = depth_below(*I_.options.support, c.pose, c.dofs) + I_.options.contact_gap;
+      if (lift > o_.backoff) return;
+      if (lift > 0.0) {
+        c.pose.translation() += lift * I_.options.support->normal.normalized();
+        out.start_pose = c.pose;
+        moved = true;
+      }
+    }
     const std::vector<char> all(states_.size(), 1);
     // The palm group first: when it is bad the wrist backs off, and the fingers are only checked
     // where it stops.
     measure(c.pose, c.dofs, fixed_);
-    bool moved = false;
     if (any_bad(fixed_)) {
       // 1. Back off until the palm group is clear.
       if (!back_off(c, deepest(fixed_), out)) return;
@@ -124,6 +140,22 @@ class Settler {
     Pose out = pose;
     out.translation() -= distance * (pose.linear() * approach_);
     return out;
+  }
+
+  // How far (m) the hand's lowest link vertex at `wrist`, `q` lies below the plane (<= 0: above it).
+  double depth_below(const SupportPlane& plane, const Pose& wrist, const Eigen::VectorXd& q) const {
+    const Eigen::Vector3d n = plane.normal.normalized();
+    const std::vector<Pose> poses = I_.hand.link_poses(q, true);
+    double lowest = std::numeric_limits<double>::infinity();
+    for (std::size_t l = 0; l < I_.hand.links().size(); ++l) {
+      const Mesh& m = I_.hand.links()[l].mesh;
+      const Pose T = wrist * poses[l];
+      // Heights of the vertices: n . (R v + t - p) = (R^T n) . v + n . (t - p).
+      const Eigen::Vector3d a = T.linear().transpose() * n;
+      const double b = n.dot(T.translation() - plane.point);
+      if (m.vertices.rows() > 0) lowest = std::min(lowest, (m.vertices * a).minCoeff() + b);
+    }
+    return std::isfinite(lowest) ? -lowest : 0.0;
   }
 
   // Exponential search along the approach axis (each pruned distance at least doubles, or grows

@@ -46,6 +46,39 @@ SupportPlane SupportPlane::below(const Mesh& target, const Eigen::Vector3d& up) 
   return s;
 }
 
+std::optional<SupportPlane> SupportPlane::under(const Mesh& target, const Mesh& obstacle, double distance) {
+  constexpr Eigen::Index kMostFaces = 5000;
+  constexpr double kSlack = 1e-6;
+  const Eigen::Index F = obstacle.faces.rows();
+  if (F == 0 || F > kMostFaces || target.vertices.rows() == 0 || !(distance >= 0.0)) return std::nullopt;
+  std::optional<SupportPlane> best;
+  double best_area = 0.0;
+  for (Eigen::Index f = 0; f < F; ++f) {
+    const Eigen::Vector3d a = obstacle.vertices.row(obstacle.faces(f, 0)).transpose();
+    const Eigen::Vector3d b = obstacle.vertices.row(obstacle.faces(f, 1)).transpose();
+    const Eigen::Vector3d c = obstacle.vertices.row(obstacle.faces(f, 2)).transpose();
+    const Eigen::Vector3d cr = (b - a).cross(c - a);
+    const double area = 0.5 * cr.norm();
+    if (!(area > 0.0) || area <= best_area) continue;
+    const Eigen::Vector3d n = cr.normalized();
+    const Eigen::VectorXd ht = (target.vertices.rowwise() - a.transpose()) * n;
+    const double low = ht.minCoeff();
+    if (low < -kSlack || low > distance) continue;
+    if (((obstacle.vertices.rowwise() - a.transpose()) * n).maxCoeff() > kSlack) continue;
+    // The obstacle's extent in the plane covers the target's (an orthonormal frame u, w of it).
+    const Eigen::Vector3d u = (std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY()).cross(n).normalized();
+    const Eigen::Vector3d w = n.cross(u);
+    const Eigen::VectorXd tu = target.vertices * u, tw = target.vertices * w;
+    const Eigen::VectorXd ou = obstacle.vertices * u, ow = obstacle.vertices * w;
+    if (ou.minCoeff() > tu.minCoeff() || ou.maxCoeff() < tu.maxCoeff() || ow.minCoeff() > tw.minCoeff() ||
+        ow.maxCoeff() < tw.maxCoeff())
+      continue;
+    best = SupportPlane{a, n};
+    best_area = area;
+  }
+  return best;
+}
+
 namespace {
 
 // The state of a patch against one mark, or against all of them.

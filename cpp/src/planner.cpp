@@ -258,6 +258,11 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& sce
   co.depth_tolerance = setup.depth_tolerance;
   co.contact_gap = options.gap;
   co.threads = options.threads;
+  // Settling lifts the hand out of the support: the plane given, else the top of an obstacle the
+  // target stands on (a table given as a mesh).
+  co.support = scene.occlusion.support;
+  for (std::size_t i = 0; !co.support && i < obstacles.size(); ++i)
+    co.support = SupportPlane::under(target, obstacles[i].mesh, scene.occlusion.distance);
   // An edge far over the pair budget is refused before anything is built: the checker's fields are
   // sized by the same edge (its depth tolerance), and at a tiny edge they alone take minutes.
   check_pair_estimate(target, setup.edge, free, io);

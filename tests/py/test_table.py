@@ -146,3 +146,36 @@ def test_cli_support_and_table_mesh_plan_alike(tmp_path):
     assert "support" in a["inputs"] and "support" not in b["inputs"]
     assert a["inputs"]["free_surface"]["resolution"] == b["inputs"]["free_surface"]["resolution"]
     assert any(g["force_closure"] for g in a["grasps"]) and any(g["force_closure"] for g in b["grasps"])
+
+
+def test_settling_lifts_the_hand_out_of_the_support_or_drops_it():
+    """A grasp from above whose open fingers reach 3 cm into the table is lifted straight up by what
+    the posed link meshes (trimesh, here) reach below it, plus the contact gap; one that would need
+    more than the largest back-off is dropped before closing."""
+    hand = pg.load_hand(str(BARRETT))
+    planner = pg.Planner(hand, str(BOX), support=True)
+    pipe = pg.CandidatePipeline(planner.checker, edge=planner.edge, backoff=planner.backoff)
+    dofs = np.zeros(len(hand.dof_names))           # fingers straight, along the approach
+    a = np.asarray(hand.approach, float)
+    # The wrist turned so that the approach points down (-z), 15 cm beside the box: only the table is there.
+    v = np.cross(a, (0, 0, -1.0))
+    ang = np.arccos(np.clip(np.dot(a, (0, 0, -1.0)), -1, 1))
+    R = trimesh.transformations.rotation_matrix(ang, v)[:3, :3] if np.linalg.norm(v) > 1e-9 else np.eye(3)
+    poses = []
+    for below in (0.03, planner.backoff + 0.02):
+        T = np.eye(4)
+        T[:3, :3] = R
+        low = min(m.vertices[:, 2].min() for m in link_meshes(hand, T, dofs).values())
+        T[0, 3] = 0.15
+        T[2, 3] = -below - low                       # the lowest vertex `below` m under the table
+        poses.append(T)
+    rep = pipe.process(np.array(poses), np.array([dofs, dofs]), [0, 1], [1.0, 1.0], [1, 1])
+    assert rep["settled"] == 1
+    (c,) = pipe.evaluated()
+    assert c.sample == 0 and c.settled == "adjusted" and c.backoff == 0.0
+    lifted = np.asarray(c.start_pose)
+    assert np.allclose(lifted[:3, :3], poses[0][:3, :3]) and np.allclose(lifted[:2, 3], poses[0][:2, 3])
+    gap = 0.001  # the contact gap it clears the table by
+    assert lifted[2, 3] - poses[0][2, 3] == pytest.approx(0.03 + gap, abs=1e-9)
+    low = min(m.vertices[:, 2].min() for m in link_meshes(hand, lifted, c.start_dofs).values())
+    assert low == pytest.approx(gap, abs=1e-9)

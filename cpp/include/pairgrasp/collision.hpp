@@ -6,6 +6,7 @@
 ///
 /// Frames: the wrist pose maps wrist coordinates to target coordinates, p_T = R·p_G + t.
 /// Obstacles are given in the target frame. Lengths are metres.
+#include <pairgrasp/free_surface.hpp>
 #include <pairgrasp/hand.hpp>
 #include <pairgrasp/mesh.hpp>
 #include <pairgrasp/surface_query.hpp>
@@ -13,6 +14,7 @@
 
 #include <cstddef>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -55,6 +57,12 @@ struct CheckOptions {
   bool use_distance_field = true;
   /// Cell edge (m) of the distance fields; their interpolation error is at most (√3/2)·cell.
   double field_cell = 0.001;
+  /// The plane the target rests on (target frame), when it does. Settling a candidate
+  /// (candidates.hpp) first lifts the hand along the plane's normal until every link vertex lies
+  /// `contact_gap` above it, and drops the candidate at once when that takes more than the largest
+  /// back-off.
+  /// The checks here do not read it: give the support as an obstacle too (support_box()).
+  std::optional<SupportPlane> support;
 };
 
 /// What one link collides with.

@@ -30,6 +30,13 @@ struct SupportPlane {
   /// The plane through the lowest point of `target` along `up` (non-zero, any length), normal `up`.
   /// Throws std::invalid_argument for a mesh without vertices or a zero or non-finite `up`.
   static SupportPlane below(const Mesh& target, const Eigen::Vector3d& up = Eigen::Vector3d::UnitZ());
+  /// The plane of a face of `obstacle` that `target` stands on, when there is one (a table given
+  /// as a mesh; a wall it leans on is one too): the obstacle lies wholly below the plane, the
+  /// target wholly above it (within
+  /// 1e-6 m) with its lowest point within `distance` (m) of it, and the obstacle's extent in the
+  /// plane covers the target's. The largest such face's plane; nullopt when none, for an empty
+  /// mesh, or for an obstacle of more than 5,000 faces (not searched).
+  static std::optional<SupportPlane> under(const Mesh& target, const Mesh& obstacle, double distance);
   /// Throws std::invalid_argument ("support: ...") for a non-finite point or normal or a zero normal.
   void validate() const;
   /// Signed height of p above the plane, metres (the normal taken unit).

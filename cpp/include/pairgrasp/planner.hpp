@@ -100,7 +100,9 @@ struct Scene {
   Occlusion occlusion;
   /// Meshes the hand must not touch (a table given as a mesh, a holder). A support plane is added
   /// as one more ("support": support_box() with a margin of twice the hand's reach plus the
-  /// largest back-off), and occluders are not obstacles unless listed here too.
+  /// largest back-off), and occluders are not obstacles unless listed here too. Without a support
+  /// plane, an obstacle the target stands on (SupportPlane::under(), within occlusion.distance) is
+  /// the support settling lifts the hand out of (CheckOptions::support).
   std::vector<Obstacle> obstacles;
 };
 
