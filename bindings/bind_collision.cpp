@@ -168,10 +168,12 @@ void bind_collision(pyb::module_& m) {
       "per cube of this edge per link. threads: check_many's threads (0: all cores). use_distance_field: "
       "check through distance fields (the exact queries deciding wherever a field's error bound straddles a "
       "threshold, so every flag equals the exact path's; depths within (sqrt(3)/2) field_cell); False: the "
-      "exact path. field_cell (m): the fields' cell edge.")
+      "exact path. field_cell (m): the fields' cell edge. support: a SupportPlane the target stands on, which "
+      "CandidatePipeline's settling lifts the hand out of (give it as an obstacle too: support_box).")
       .def(pyb::init([](const Hand& hand, const Mesh& target, const pyb::object& free, const pyb::object& obstacles,
                         double depth_tolerance, double gap, double sample_spacing, double contact_spacing,
-                        double contact_cell, int threads, bool use_distance_field, double field_cell) {
+                        double contact_cell, int threads, bool use_distance_field, double field_cell,
+                        std::optional<SupportPlane> support) {
              const Mask mask = mask_from(free, "free").value_or(Mask());
              const std::vector<Obstacle> obs = obstacles_from(obstacles);
              CheckOptions o;
@@ -183,6 +185,8 @@ void bind_collision(pyb::module_& m) {
              o.threads = threads;
              o.use_distance_field = use_distance_field;
              o.field_cell = field_cell;
+             o.support = support;
+             if (support) support->validate();
              pyb::gil_scoped_release release;
              return GraspChecker(hand, target, mask, obs, o);
            }),
@@ -190,7 +194,10 @@ void bind_collision(pyb::module_& m) {
            "depth_tolerance"_a = CheckOptions().depth_tolerance, "gap"_a = CheckOptions().contact_gap,
            "sample_spacing"_a = CheckOptions().sample_spacing, "contact_spacing"_a = CheckOptions().contact_spacing,
            "contact_cell"_a = CheckOptions().contact_cell, "threads"_a = CheckOptions().threads,
-           "use_distance_field"_a = CheckOptions().use_distance_field, "field_cell"_a = CheckOptions().field_cell)
+           "use_distance_field"_a = CheckOptions().use_distance_field, "field_cell"_a = CheckOptions().field_cell,
+           "support"_a = pyb::none())
+      .def_property_readonly("support", [](const GraspChecker& c) { return c.options().support; },
+                             "The SupportPlane settling lifts the hand out of (None: none).")
       .def_property_readonly("hand", &GraspChecker::hand)
       .def_property_readonly("target", &GraspChecker::target)
       .def_property_readonly("free", [](const GraspChecker& c) { return mask_to_numpy(c.free()); },

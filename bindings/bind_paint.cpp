@@ -276,6 +276,10 @@ mask of the wrong size or with no free face, pairgrasp.FileError when the file c
            "ValueError ('support: ...') for a non-finite point or normal or a zero normal.")
       .def_static("below", &SupportPlane::below, pyb::arg("target"), pyb::arg("up") = V3::UnitZ().eval(),
                   "The plane through the target's lowest point along `up`, normal `up` (the default support).")
+      .def_static("under", &SupportPlane::under, pyb::arg("target"), pyb::arg("obstacle"), pyb::arg("distance") = 0.005,
+                  "The plane of a face of `obstacle` that `target` stands on (a table mesh): the obstacle wholly "
+                  "below it, the target above it with its lowest point within `distance` m, the obstacle's extent "
+                  "covering the target's; None when there is none (or the obstacle has over 5,000 faces).")
       .def_readonly("point", &SupportPlane::point)
       .def_readonly("normal", &SupportPlane::normal)
       .def("height", &SupportPlane::height, pyb::arg("point"), "Signed height of a point above the plane (m).")

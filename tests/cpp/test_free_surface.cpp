@@ -242,6 +242,34 @@ TEST(FreeSurface, BadInputThrowsNamingTheField) {
   EXPECT_THROW(support_box(*o.support, box, 0.0), std::invalid_argument);
 }
 
+TEST(FreeSurface, ATableMeshIsRecognisedAsTheSupport) {
+  const Mesh box = coarse_box();
+  const Mesh table = tmesh::box_mesh(Vector3d(-0.3, -0.3, -kHalf - 0.02), Vector3d(0.3, 0.3, -kHalf), 1, "table");
+  const std::optional<SupportPlane> s = SupportPlane::under(box, table, kDist);
+  ASSERT_TRUE(s.has_value());
+  EXPECT_NEAR(s->normal.normalized().z(), 1.0, 1e-12);
+  EXPECT_NEAR(s->point.z(), -kHalf, 1e-12);
+  // 3 mm below the box: still within the distance; 1 cm below: not standing on it.
+  Mesh lower = table;
+  lower.vertices.col(2).array() -= 0.003;
+  EXPECT_TRUE(SupportPlane::under(box, lower, kDist).has_value());
+  lower.vertices.col(2).array() -= 0.007;
+  EXPECT_FALSE(SupportPlane::under(box, lower, kDist).has_value());
+  // A wall the box leans on is one too (the hand must stay on this side of it), 2 cm away it is not.
+  const std::optional<SupportPlane> wall = SupportPlane::under(
+      box, tmesh::box_mesh(Vector3d(kHalf, -0.3, -0.3), Vector3d(kHalf + 0.02, 0.3, 0.3), 1, "wall"), kDist);
+  ASSERT_TRUE(wall.has_value());
+  EXPECT_NEAR(wall->normal.normalized().x(), -1.0, 1e-12);
+  EXPECT_FALSE(SupportPlane::under(box, tmesh::box_mesh(Vector3d(kHalf + 0.02, -0.3, -0.3),
+                                                        Vector3d(kHalf + 0.04, 0.3, 0.3), 1, "wall"), kDist));
+  // A slab narrower than the box, a table cutting into it: not a support.
+  EXPECT_FALSE(SupportPlane::under(box, tmesh::box_mesh(Vector3d(-0.02, -0.02, -kHalf - 0.02),
+                                                        Vector3d(0.02, 0.02, -kHalf), 1, "slab"), kDist));
+  EXPECT_FALSE(SupportPlane::under(box, tmesh::box_mesh(Vector3d(-0.3, -0.3, -kHalf - 0.02),
+                                                        Vector3d(0.3, 0.3, -kHalf + 0.01), 1, "cut"), kDist));
+  EXPECT_FALSE(SupportPlane::under(box, Mesh{}, kDist));
+}
+
 TEST(FreeSurface, SupportBoxLiesUnderThePlaneAndCoversTheFootprint) {
   const Mesh box = coarse_box();
   const SupportPlane plane = SupportPlane::below(box);

@@ -89,6 +89,10 @@ def test_support_plane_and_table_mesh_give_the_same_free_surface():
     for p in (a, b):
         tm = to_trimesh(p.target)
         assert tm.area_faces[p.free].sum() == pytest.approx(free_area(by_plane), abs=1e-9)
+    # Settling lifts the hand out of the same plane: given, or recognised as the table mesh's top face.
+    for p in (a, b):
+        assert p.checker.support.height((0, 0, 0.01)) == pytest.approx(0.01, abs=1e-12)
+    assert pg.SupportPlane.under(a.target, as_mesh(table_mesh(z=-0.01), "low")) is None
     (name, box), = a.core.obstacles
     assert name == "support" and np.asarray(box.vertices)[:, 2].max() == pytest.approx(0.0, abs=1e-12)
 
