@@ -601,14 +601,15 @@ void bind_planning(pyb::module_& m) {
 
   m.def(
       "hull_rank_for",
-      [](int top, int fine_tune, const std::string& rank) {
+      [](int top, int fine_tune, const std::string& rank, int robust_pool) {
         FinishOptions o;
         o.top = top;
         o.fine_tune = fine_tune;
         o.rank = ranking_from_string(rank);
+        o.robust_pool = robust_pool;
         return hull_rank_for(o);
       },
-      "top"_a, "fine_tune"_a, "rank"_a,
+      "top"_a, "fine_tune"_a, "rank"_a, "robust_pool"_a = FinishOptions().robust_pool,
       "The CandidatePipeline hull_rank under which every grasp finish() can pick has its exact epsilon.");
 
   m.def(

@@ -10,6 +10,7 @@
 #include <limits>
 #include <cmath>
 #include <numeric>
+#include <queue>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -485,25 +486,44 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
   std::stable_sort(tuned.begin(), tuned.end(),
                    [&](const RankedGrasp& a, const RankedGrasp& b) { return tuned_key(a) > tuned_key(b); });
 
-  // Near-duplicates (same wrist position within h, DOFs within half a step) are returned once.
-  // The robust and enclosure rankings order a pool that does not shrink with `top`.
+  // Near-duplicates (the same key as process(): wrist position within h, rotation, DOFs within half
+  // a step) are returned once. The robust and enclosure rankings order a pool that does not shrink
+  // with `top`. The walk takes the best remaining grasp by its exact epsilon: a force-closure
+  // candidate the search left with a lower bound (beyond hull_rank) enters with its upper bound
+  // and is scored exactly when it comes first, so the pool is the exhaustive search's whatever
+  // hull_rank was.
   const bool robust = options.rank == Ranking::Robust, load = options.rank == Ranking::Load;
   const bool enclosure = options.rank == Ranking::Enclosure || load;
   const bool pooled = options.rank != Ranking::Epsilon;
   const int pool = pooled ? std::max(options.top, options.robust_pool) : options.top;
+  auto exact = [](const RankedGrasp& g) {
+    const GraspQuality& q = g.evaluation.quality;
+    return !q.force_closure || q.epsilon_computed;
+  };
+  auto walk_key = [&](std::size_t i) {
+    const RankedGrasp& g = tuned[i];
+    const Candidate& c = evaluated_[g.candidate].candidate;
+    const GraspQuality& q = g.evaluation.quality;
+    return std::make_tuple(q.force_closure, exact(g) ? q.epsilon : std::max(q.epsilon, q.epsilon_bound), c.quality,
+                           c.votes, -static_cast<long>(i));
+  };
+  auto after = [&](std::size_t a, std::size_t b) { return walk_key(a) < walk_key(b); };
+  std::priority_queue<std::size_t, std::vector<std::size_t>, decltype(after)> queue(after);
+  for (std::size_t i = 0; i < tuned.size(); ++i) queue.push(i);
   std::vector<RankedGrasp> chosen;
   std::set<std::vector<std::int64_t>> signatures;
-  for (RankedGrasp& g : tuned) {
-    std::vector<std::int64_t> sig;
-    for (int a = 0; a < 3; ++a)
-      sig.push_back(static_cast<std::int64_t>(std::nearbyint(g.evaluation.wrist.translation()[a] / options_.edge)));
-    for (Eigen::Index d = 0; d < g.evaluation.dofs.size(); ++d) {
-      const double half = options_.steps[d] > 0 ? options_.steps[d] / 2.0 : 1.0;
-      sig.push_back(static_cast<std::int64_t>(std::nearbyint(g.evaluation.dofs[d] / half)));
+  while (!queue.empty() && static_cast<int>(chosen.size()) < pool) {
+    const std::size_t i = queue.top();
+    queue.pop();
+    RankedGrasp& g = tuned[i];
+    if (!exact(g)) {
+      g.evaluation.quality = score_reduced(g.evaluation.contacts, 0.0);
+      queue.push(i);
+      continue;
     }
-    if (!signatures.insert(sig).second) continue;
+    if (!signatures.insert(dedupe_key(g.evaluation.wrist, g.evaluation.dofs, options_.edge, options_.steps)).second)
+      continue;
     chosen.push_back(std::move(g));
-    if (static_cast<int>(chosen.size()) >= pool) break;
   }
 
   // The returned grasps are scored again with every contact, their epsilon exact (the whole hull,

@@ -355,3 +355,24 @@ def test_same_result_on_one_thread(jaw_result):
     for d in (a, b):
         d.pop("timings")
     assert a == b
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("target", ["box", "mug", "flask"])
+def test_returned_ranking_equals_scoring_every_candidate_fully(target):
+    """Only the candidates that can reach the best epsilons pay for their hulls (hull_rank); the grasps
+    finish() returns, and their order, are those of scoring every candidate fully (hull_rank = 0),
+    by epsilon and by load (the default), with the near-duplicate key of the search (wrist rotation
+    included)."""
+    hand = pg.load_hand(str(MODELS / "barrett" / "barrett.json"))
+    core = pg.GraspPlanner(hand, pg.load_mesh(str(MODELS / "targets" / f"{target}.stl")))
+    axes = pg.dof_grid(hand.dof_lower, hand.dof_upper, [1.0] * len(hand.dof_names))
+    samples = np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(axes), -1).T
+    for rank in ("epsilon", "load"):
+        runs = [pg.plan_samples(core, samples, top=5, fine_tune=0, seed=1, hull_rank=h, rank=rank)[0]
+                for h in (-1, 0)]
+        assert len(runs[0]) == len(runs[1]) > 0, rank
+        for a, b in zip(*runs):
+            ea, eb = a.evaluation, b.evaluation
+            assert np.allclose(ea.wrist_pose, eb.wrist_pose) and np.allclose(ea.dofs, eb.dofs), rank
+            assert a.epsilon == pytest.approx(b.epsilon, abs=1e-12), rank
