@@ -54,10 +54,12 @@ def _hand_triangles(hand, wrist_pose: np.ndarray, dofs: np.ndarray):
 
 
 def draw_grasp(hand, target, free: Optional[np.ndarray], wrist_pose, dofs, path: str, title: str = "",
-               contacts: Optional[np.ndarray] = None, views: Sequence[tuple] = ((25, -60), (25, 60))) -> str:
+               contacts: Optional[np.ndarray] = None, views: Sequence[tuple] = ((25, -60), (25, 60)),
+               support=None) -> str:
     """Writes a PNG of the hand at ``wrist_pose`` / ``dofs`` with the target (free faces grey,
-    occluded faces orange) and the contact points (red), from each of ``views`` (elevation,
-    azimuth in degrees). Returns ``path``."""
+    occluded faces orange), the contact points (red) and, given a :class:`pairgrasp.SupportPlane`,
+    the table as a translucent square on it, from each of ``views`` (elevation, azimuth in degrees).
+    Returns ``path``."""
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     plt = _pyplot()
@@ -72,8 +74,19 @@ def draw_grasp(hand, target, free: Optional[np.ndarray], wrist_pose, dofs, path:
     lo, hi = allv.min(axis=0), allv.max(axis=0)
     centre, half = (lo + hi) / 2.0, (hi - lo).max() / 2.0 * 1.02
     fig = plt.figure(figsize=(5.0 * len(views), 5.0), dpi=100)
+    table = None
+    if support is not None:
+        # A square on the plane, centred under the drawing and as wide as it (mm).
+        n = np.asarray(support.normal, float) / np.linalg.norm(support.normal)
+        u = np.cross(n, (1.0, 0.0, 0.0) if abs(n[0]) < 0.9 else (0.0, 1.0, 0.0))
+        u /= np.linalg.norm(u)
+        w = np.cross(n, u)
+        c = centre - np.dot(centre - 1000.0 * np.asarray(support.point, float), n) * n
+        table = np.array([[c + half * (a * u + b * w) for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))]])
     for k, (elev, azim) in enumerate(views):
         ax = fig.add_subplot(1, len(views), k + 1, projection="3d")
+        if table is not None:
+            ax.add_collection3d(Poly3DCollection(table, facecolors=(0.55, 0.45, 0.35), edgecolors="none", alpha=0.35))
         ax.add_collection3d(Poly3DCollection(tris * 1000.0, facecolors=tcol, edgecolors="none", alpha=1.0))
         if len(htris):
             ax.add_collection3d(Poly3DCollection(htris * 1000.0, facecolors=hcol, edgecolors=(0.1, 0.1, 0.2, 0.3),
@@ -103,7 +116,7 @@ def draw_planned(planner, grasp, path: str, label: str = "") -> str:
              f"{' (force closure)' if grasp.force_closure else ''}, Q_A {grasp.alignment_quality:.2f}, "
              f"penetration {1000 * grasp.penetration_depth:.2f} mm")
     return draw_grasp(planner.hand, planner.target, planner.free, grasp.wrist_pose, grasp.dofs, path, title=title,
-                      contacts=grasp.contact_points)
+                      contacts=grasp.contact_points, support=getattr(planner, "support", None))
 
 
 def _save(fig, path: str):
