@@ -283,3 +283,18 @@ def test_done_targets_are_skipped_and_half_written_folders_removed(tmp_path, tar
     assert rows[1]["seconds"] is not None and targets[2] in rows[1]["error"]
     assert sorted(os.listdir(out)) == [".mug.part-123", "box", "summary.csv"]
     assert [r["status"] for r in _summary(out)[1].values()] == ["skipped", "failed", "failed"]
+
+
+@no_pool
+def test_batch_on_a_table_plans_as_the_planner_does(tmp_path, targets):
+    """`support=True` stands every target on its table in the batch as in Planner: the same grasps,
+    the support recorded."""
+    out = tmp_path / "out"
+    rows = pg.plan_batch(str(BARRETT), targets[:1], out, workers=1, progress=False, support=True, **TINY)
+    assert [r["status"] for r in rows] == ["ok"]
+    doc = json.loads((out / "box" / "grasps.json").read_text())
+    want = pg.Planner(str(BARRETT), targets[0], paint=targets[0][:-4] + ".paint.json", support=True,
+                      **TINY).plan(progress=False).to_dict()
+    assert doc["inputs"]["support"] == want["inputs"]["support"]
+    assert doc["inputs"]["support"]["normal"] == [0.0, 0.0, 1.0]
+    assert doc["grasps"] == want["grasps"]
