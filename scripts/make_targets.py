@@ -323,24 +323,23 @@ def build():
     assert len(bottom) == 2
     out["box.paint.json"] = paint_json("box.stl", len(f), BOX_PAINT_NOTE, occluded=bottom)
 
-    # mug: every face of the base plane (centroids below 1 mm), by a half-space
+    # The mug's and the flask's marks are whole faces, listed, as painting them in a mesh editor
+    # would: the faces whose centroid (from the STL's float32 vertices) lies in the region. A paint
+    # region would mark points and split the faces it crosses (docs/cli.md).
+    # mug: every face of the base plane (centroids below 1 mm)
     v, f = mug
-    out["mug.paint.json"] = paint_json(
-        "mug.stl", len(f), MUG_PAINT_NOTE,
-        regions=[{"shape": "halfspace", "point": [0.0, 0.0, 0.001], "normal": [0.0, 0.0, -1.0],
-                  "mark": "occluded"}])
+    c = _centroids(v, f)
+    out["mug.paint.json"] = paint_json("mug.stl", len(f), MUG_PAINT_NOTE, occluded=np.flatnonzero(c[:, 2] <= 0.001))
 
-    # flask: the lip (everything at or above FLASK_OCCLUDED_ABOVE) and the mouth opening
+    # flask: the lip (centroids at or above FLASK_OCCLUDED_ABOVE) and the mouth opening (centroids
+    # within a cylinder 0.5 mm wider than the mouth, from 1 mm below its floor to the top)
     v, f = flask
+    c = _centroids(v, f)
     rm, zm = FLASK["mouth_radius"], FLASK["height"] - FLASK["mouth_depth"]
-    out["flask.paint.json"] = paint_json(
-        "flask.stl", len(f), FLASK_PAINT_NOTE,
-        regions=[
-            {"shape": "halfspace", "point": [0.0, 0.0, FLASK_OCCLUDED_ABOVE],
-             "normal": [0.0, 0.0, 1.0], "mark": "occluded"},
-            {"shape": "cylinder", "start": [0.0, 0.0, round(zm - 0.001, 6)],
-             "end": [0.0, 0.0, FLASK["height"]], "radius": round(rm + 0.0005, 6), "mark": "occluded"},
-        ])
+    r0, z0, z1 = round(rm + 0.0005, 6), round(zm - 0.001, 6), FLASK["height"]
+    mouth = (np.hypot(c[:, 0], c[:, 1]) <= r0) & (c[:, 2] >= z0) & (c[:, 2] <= z1)
+    occluded = np.flatnonzero((c[:, 2] >= FLASK_OCCLUDED_ABOVE) | mouth)
+    out["flask.paint.json"] = paint_json("flask.stl", len(f), FLASK_PAINT_NOTE, occluded=occluded)
     return out, summary
 
 
