@@ -15,6 +15,7 @@
 #include <string>
 
 #include "test_meshes.hpp"
+#include "test_scale.hpp"
 #include "../../cpp/src/collision_internal.hpp"
 
 using namespace pairgrasp;
@@ -171,7 +172,7 @@ TEST(CollisionField, DecisionsEqualTheExactPathOnRandomPoses) {
         SCOPED_TRACE(std::string(spec) + " on " + name + ", " + v.what);
         const GraspChecker exact(hand, target, v.free, v.obstacles, with_field(false));
         const GraspChecker field(hand, target, v.free, v.obstacles, with_field(true));
-        const Poses p = random_poses(hand, target, 200, seed++, field);
+        const Poses p = random_poses(hand, target, testing_scale::cases(200), seed++, field);
         Tally t;
         compare(exact, field, p, (seed % 2) == 0, t);
         std::printf("%-30s %-6s %-14s %4d poses: %3d pruned, %3d penetrating, %3d occluded, %3d obstacle, %3d colliding; %d differ\n",
@@ -202,7 +203,7 @@ TEST(CollisionField, ClosingAndContactsEqualTheExactPath) {
       const Mask paint = load_paint(model(std::string("targets/") + name + ".paint.json"), target);
       const GraspChecker exact(hand, target, paint, {}, with_field(false));
       const GraspChecker field(hand, target, paint, {}, with_field(true));
-      const Poses p = random_poses(hand, target, 48, seed++, field);
+      const Poses p = random_poses(hand, target, testing_scale::cases(48), seed++, field);
       for (std::size_t k = 0; k < p.wrists.size(); ++k) {
         SCOPED_TRACE("pose " + std::to_string(k));
         const Contacts ca = find_contacts(exact, p.wrists[k], p.dofs[k]);
@@ -258,7 +259,7 @@ TEST(CollisionField, ClearanceIsExactOrALowerBoundBeyondTheThreshold) {
     const Mesh target = load_mesh(model(std::string("targets/") + name + ".stl"));
     const GraspChecker field(hand, target, Mask(), {}, with_field(true));
     const GraspChecker::Impl& I = field.impl();
-    const Poses p = random_poses(hand, target, 48, seed++, field);
+    const Poses p = random_poses(hand, target, testing_scale::cases(48), seed++, field);
     for (std::size_t k = 0; k < p.wrists.size(); ++k) {
       const std::vector<Pose> poses = I.target_frame_poses(p.wrists[k], p.dofs[k]);
       for (std::size_t l = 0; l < poses.size(); ++l)

@@ -5,6 +5,7 @@
 #include <pairgrasp/pair_index.hpp>
 
 #include "surface_test_meshes.hpp"
+#include "test_scale.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -272,7 +273,7 @@ TEST(PairIndex, QueryEqualsBruteForceOnMeshFeatures) {
     PairIndexOptions o;
     o.d_max = 0.1;
     const PairIndex idx(u.points, u.normals, u.free, o);
-    check_queries(idx, 9, 150);
+    check_queries(idx, 9, testing_scale::cases(150));
   }
 }
 
