@@ -506,6 +506,10 @@ void bind_planning(pyb::module_& m) {
       "spacing"_a = 0.0, "max_area_samples"_a = PlannerOptions().max_area_samples, "depth_tolerance"_a = -1.0, \
       "gap"_a = PlannerOptions().gap, "backoff"_a = -1.0, "max_poses"_a = PlannerOptions().max_poses,         \
       "threads"_a = 0
+  m.def("finest_edge", &finest_edge, "target"_a,
+        "The finest unit-facet edge the planner derives for the target (m): 5 mm, or a fifteenth of its smallest "
+        "extent when that is less. A derived edge only grows from here, so a quarter of it bounds the derived depth "
+        "tolerance from below.");
   m.def(
       "resolve_planner",
       [](const Hand& hand, const Mesh& target, const pyb::object& free, double edge, double d_max, std::size_t max_pairs,

@@ -143,16 +143,12 @@ std::vector<Eigen::VectorXd> dof_grid(const Eigen::VectorXd& lower, const Eigen:
   return cartesian(dof_axes(lower, upper, steps));
 }
 
-namespace {
-/// The unit-facet edge before the pair budget is consulted: 5 mm, or 1/15 of the target's smallest
-/// extent if smaller.
-double first_edge(const Mesh& target) {
+double finest_edge(const Mesh& target) {
   Eigen::Vector3d extent = Eigen::Vector3d::Zero();
   if (target.vertices.rows())
     extent = (target.vertices.colwise().maxCoeff() - target.vertices.colwise().minCoeff()).transpose();
   return extent.minCoeff() > 0.0 ? std::min(0.005, extent.minCoeff() / 15.0) : 0.005;
 }
-}  // namespace
 
 PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& free, const PlannerOptions& o) {
   check_value("edge", o.edge, true);
@@ -168,7 +164,7 @@ PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& f
   PlannerSetup s;
   s.mode = choose_mode(hand, o.constellation);
   const Eigen::VectorXd lo = hand.dof_lower(), hi = hand.dof_upper(), mid = (lo + hi) / 2.0;
-  double edge = o.edge > 0.0 ? o.edge : first_edge(target);
+  double edge = o.edge > 0.0 ? o.edge : finest_edge(target);
   const std::vector<Eigen::VectorXd> corners = corner_samples(lo, hi);
   if (o.d_max > 0.0) {
     s.d_max = o.d_max;
@@ -242,7 +238,7 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& sce
   if (!(options.edge >= 0.0) || !std::isfinite(options.edge)) resolve_planner(hand, given, Mask(), options);  // "edge: ..."
   // The free surface at half the first edge: the budget only makes the edge coarser, never finer.
   FreeSurface surface = pairgrasp::free_surface(
-      given, scene.occlusion, 0.5 * (options.edge > 0.0 ? options.edge : first_edge(given)), options.threads);
+      given, scene.occlusion, 0.5 * (options.edge > 0.0 ? options.edge : finest_edge(given)), options.threads);
   const Mesh& target = surface.mesh;
   const Mask& free = surface.free;
   const PlannerSetup setup = resolve_planner(hand, target, free, options);

@@ -298,7 +298,12 @@ class Planner:
         p = self.params
         if p.max_faces is None:
             return mesh, free
-        small, info = simplify_mesh(mesh, p.max_faces, 0.25 * (p.edge or 0.005))
+        # Within the depth tolerance the planner will use: a quarter of the edge (the finest one it
+        # may derive for this target when none is given), or the tolerance given, if smaller.
+        max_error = 0.25 * (p.edge or _core.finest_edge(mesh))
+        if p.depth_tolerance is not None:
+            max_error = min(max_error, float(p.depth_tolerance))
+        small, info = simplify_mesh(mesh, p.max_faces, max_error)
         if info is None:
             return mesh, free
         self.inputs["target_simplified"] = info.to_dict()
@@ -332,10 +337,11 @@ class Planner:
     def plan(self, progress: Optional[bool] = None, **overrides) -> PlanResult:
         """Runs the schedule and returns the ranked grasps. ``overrides`` change plan-time fields of
         the parameters (schedule, step, poses_per_sample, ..., not the ones the constructor used:
-        edge, d_max, max_pairs, constellation, spacing, depth_tolerance, gap)."""
+        edge, d_max, max_pairs, max_faces, constellation, spacing, max_area_samples, depth_tolerance,
+        gap, backoff, threads: changing one of those is a ValueError)."""
         p = PlanParams(**asdict(self.params))
         fixed = {"edge", "d_max", "max_pairs", "max_faces", "constellation", "spacing", "depth_tolerance", "gap",
-                 "max_area_samples", "threads"}
+                 "backoff", "max_area_samples", "threads"}
         for k, v in overrides.items():
             if k not in {f.name for f in fields(PlanParams)}:
                 raise ValueError(f"unknown planner parameter {k!r}")

@@ -120,6 +120,25 @@ def test_planner_simplifies_a_large_target_and_records_it():
     assert planner.free[up > 0.005].all() and not planner.free[up < -0.005].any()
 
 
+def test_simplification_stays_within_the_depth_tolerance_the_planner_uses():
+    # A 4 cm sphere: the planner derives a 2.7 mm edge (a fifteenth of its size), so its depth
+    # tolerance is 0.67 mm, not the 1.25 mm of 5 mm facets. A depth_tolerance given (50 um, below
+    # the 59 um of the reduction a 5 mm edge's bound would take) bounds it too.
+    V, F = icosphere(5, 0.02)
+    mesh = pg.make_mesh(V, F, "small_sphere")
+    assert pg.finest_edge(mesh) == pytest.approx(0.04 / 15, rel=1e-3)
+    for given in ({}, {"depth_tolerance": 5e-5}):
+        planner = pg.Planner(JAW, mesh, max_faces=60, **given)
+        rec = planner.inputs["target_simplified"]
+        assert rec["faces"] < len(F) and rec["error_bound"] <= planner.depth_tolerance, given
+        # independent: the planned surface's points (vertices, edge midpoints, face centres) against
+        # the sphere itself, less the file's own chords' depth (its 0.7 mm edges: under 4 um)
+        W = np.asarray(planner.target.vertices)[np.asarray(planner.target.faces)]
+        points = np.concatenate([W.reshape(-1, 3), W.mean(axis=1), (W + np.roll(W, 1, axis=1)).reshape(-1, 3) / 2])
+        off = np.abs(np.linalg.norm(points, axis=1) - 0.02)
+        assert off.max() <= planner.depth_tolerance + 4e-6, given
+
+
 @pytest.mark.slow          # CoACD decomposes the open box for its collision pieces (minutes)
 def test_cli_simulates_an_open_target_and_says_where_its_mass_comes_from(tmp_path):
     pytest.importorskip("mujoco", reason="the [sim] extra")

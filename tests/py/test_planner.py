@@ -304,9 +304,17 @@ def test_bad_planner_inputs():
         pg.Planner(str(JAW), "nope.stl")
 
 
-def test_plan_time_fields_cannot_change_the_index(jaw_planner):
-    with pytest.raises(ValueError, match="edge"):
-        jaw_planner.plan(edge=0.002)
+@pytest.mark.parametrize("field,value", [
+    ("edge", 0.002), ("d_max", 0.3), ("max_pairs", 1000), ("max_faces", 10), ("constellation", "area"),
+    ("spacing", 0.01), ("max_area_samples", 5), ("depth_tolerance", 0.0001), ("gap", 0.002),
+    ("backoff", 0.01), ("threads", 1),
+])
+def test_plan_time_fields_cannot_change_what_the_constructor_built(jaw_planner, field, value):
+    # What the constructor resolved (the index, the checker, the settling back-off) is refused at
+    # plan time rather than recorded in the result's parameters and silently not used.
+    assert getattr(jaw_planner.params, field) != value
+    with pytest.raises(ValueError, match=f"{field}: fixed when the Planner is built"):
+        jaw_planner.plan(**{field: value})
 
 
 # ----------------------------------------------------------------------------- contact reduction

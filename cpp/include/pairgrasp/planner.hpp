@@ -79,6 +79,12 @@ double suggest_target_scale(const Mesh& target, double hand_span);
 /// it (suggest_target_scale()) and the size the target then has.
 void check_target_scale(const Mesh& target, double hand_span);
 
+/// The finest unit-facet edge the planner derives for `target` (m): 5 mm, or a fifteenth of its
+/// smallest extent when that is less (5 mm for a flat or empty mesh). A derived edge starts here and
+/// only grows (the pair budget), so a quarter of it bounds the derived depth tolerance from below:
+/// the error a simplification of the target may make.
+double finest_edge(const Mesh& target);
+
 /// Resolves PlannerOptions for a hand and a target (see each option), checking the target's scale
 /// against d_max (check_target_scale()) before anything large is computed. Throws
 /// std::invalid_argument for bad options (naming them), a target at the wrong scale or a hand whose
