@@ -236,7 +236,7 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& target, const Mask& fre
 GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& scene, const PlannerOptions& options) {
   const auto t0 = Clock::now();
   if (!(options.edge >= 0.0) || !std::isfinite(options.edge)) resolve_planner(hand, given, Mask(), options);  // "edge: ..."
-  // The free surface at half the first edge: the budget only makes the edge coarser, never finer.
+  // The free surface at half the finest edge: the budget only makes the edge coarser, never finer.
   FreeSurface surface = pairgrasp::free_surface(
       given, scene.occlusion, 0.5 * (options.edge > 0.0 ? options.edge : finest_edge(given)), options.threads);
   const Mesh& target = surface.mesh;
