@@ -99,7 +99,7 @@ class Candidate:
     votes: int
     epsilon: float
     force_closure: bool
-    settled: str  # "aligned" or "adjusted" (see Planner._settle)
+    settled: str  # "aligned" or "adjusted" (settling in candidates.hpp: kept as aligned, or moved least)
     time: float = 0.0
 
 

@@ -23,8 +23,9 @@
 ///
 /// finish() then ranks the evaluated candidates (unpruned, force closure, epsilon, alignment
 /// quality, votes), fine-tunes the best (fine_tune() with seed + rank), drops near-duplicates,
-/// scores the grasps that may be returned again with every contact and, with the robust ranking
-/// (the default), ranks them by robust_quality() (robust.hpp).
+/// scores the grasps that may be returned again with every contact and ranks them by
+/// FinishOptions::rank (load resistance by default; robust_quality() of robust.hpp with the robust
+/// ranking).
 ///
 /// Results do not depend on the thread count: candidates are independent, and everything that
 /// combines them runs in input order. Lengths are metres, angles radians.
