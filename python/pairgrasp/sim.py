@@ -73,7 +73,7 @@ from .params import with_overrides
 from .planner import _as_mesh
 
 __all__ = ["SimParams", "SimResult", "Simulator", "SimReport", "TrialNoise", "Trial", "trial_perturbations",
-           "simulate_trials", "simulate_grasps", "verify_grasps", "import_mujoco"]
+           "simulate_trials", "simulate_grasps", "verify_grasps", "import_mujoco", "load_phase"]
 
 _G = 9.81
 
@@ -130,6 +130,13 @@ class SimParams:
             5 N·m, sank 8 mm into the flask, a geometry the plan never had; at 0.004 they sink
             ~0.6 mm, a rubber pad's compression.
         contact_dmax: MuJoCo's contact impedance at full penetration (solimp dmax; its default).
+        lift_distance: m the obstacles recede along the lift direction while gravity fades in
+            (the first ``turn_time``), before they are taken away: the hand lifts the object off the
+            table at about 0.1 m/s instead of the table vanishing. A palm that rests on an object
+            standing on a table presses it against the table while the fingers close (a millimetre
+            of the convex pieces' overlap at the contact stiffness is hundreds of newtons); taken
+            away at once, the table released that compression in one step and threw the object out
+            of hands that held it once the table receded (measured: docs/physics.md).
     """
 
     density: float = 1000.0
@@ -151,12 +158,13 @@ class SimParams:
     convex_threshold: float = DEFAULT_THRESHOLD
     contact_timeconst: float = 0.004
     contact_dmax: float = 0.95
+    lift_distance: float = 0.03
 
     def validate(self) -> None:
         """Raises ValueError naming the first bad field."""
         for f in fields(self):
             v = getattr(self, f.name)
-            zero_ok = f.name in ("open_fraction", "shake_time", "shake_accel", "hold_time")
+            zero_ok = f.name in ("open_fraction", "shake_time", "shake_accel", "hold_time", "lift_distance")
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0 \
                     or (v == 0 and not zero_ok):
                 raise ValueError(f"{f.name}: expected a finite number {'>=' if zero_ok else '>'} 0, got {v!r}")
@@ -189,6 +197,9 @@ class SimResult:
         contact_links: hand links touching the object at the end of closing.
         time_simulated: s of simulated time.
         wall_time: s of computer time for this grasp (CPU).
+        failed_phase: None for a held grasp; else where the object first left a threshold:
+            ``"closing"`` (it moved beyond them while the hand closed), or the load phase of
+            :func:`load_phase` (``"lift"``, ``"hold -z"``, ``"turn +x"``, ..., ``"shake z"``).
     """
 
     success: bool
@@ -200,6 +211,7 @@ class SimResult:
     contact_links: tuple
     time_simulated: float
     wall_time: float
+    failed_phase: Optional[str] = None
 
     def to_dict(self) -> dict:
         """JSON-ready (an unstable run's infinite slips are null)."""
@@ -211,7 +223,7 @@ class SimResult:
                 "closing_rotation": round(float(self.closing_rotation), 9),
                 "contact_links": list(self.contact_links),
                 "time_simulated": round(float(self.time_simulated), 6),
-                "wall_time": round(float(self.wall_time), 4)}
+                "wall_time": round(float(self.wall_time), 4), "failed_phase": self.failed_phase}
 
 
 def _as_pose(T, where) -> np.ndarray:
@@ -357,6 +369,33 @@ def load_profile(params: SimParams, t: float) -> Optional[np.ndarray]:
     return None
 
 
+_AXIS_NAMES = {(0, 0, -1): "-z", (1, 0, 0): "+x", (0, 1, 0): "+y", (-1, 0, 0): "-x", (0, -1, 0): "-y",
+               (0, 0, 1): "+z"}
+
+
+def load_phase(params: SimParams, t: float) -> Optional[str]:
+    """Name of the load phase at time t after closing (as :func:`load_profile` runs them): ``"lift"``
+    (gravity fades in along -z while the obstacles recede), ``"hold -z"``, then ``"turn D"`` and
+    ``"hold D"`` for each gravity direction D in turn, ``"shake x"``, ``"shake y"``, ``"shake z"``;
+    None past the end."""
+    if t < params.turn_time:
+        return "lift"
+    t -= params.turn_time
+    if t < params.hold_time:
+        return "hold -z"
+    t -= params.hold_time
+    for b in _DIRECTIONS[1:]:
+        name = _AXIS_NAMES[tuple(int(v) for v in b)]
+        if t < params.turn_time + params.hold_time:
+            return ("turn " if t < params.turn_time else "hold ") + name
+        t -= params.turn_time + params.hold_time
+    for axis in "xyz":
+        if t < params.shake_time:
+            return "shake " + axis
+        t -= params.shake_time
+    return None
+
+
 class Simulator:
     """The MuJoCo scene of one hand, target and set of obstacles, compiled once; :meth:`simulate`
     runs the procedure of the module documentation for one grasp.
@@ -368,6 +407,9 @@ class Simulator:
         mass: the target's mass (kg) instead of its volume times ``density`` (the shape's inertia is
             scaled to it).
         obstacles: meshes (or paths) in the target frame: the plan's obstacles and occluders.
+        lift_direction: the direction (target frame) the hand lifts the object in when the load
+            begins: the obstacles recede the opposite way (``SimParams.lift_distance``) before
+            they are taken away. +z (the load's first gravity is -z); a support plane's normal.
         params: :class:`SimParams`; keyword arguments override its fields.
 
     Attributes:
@@ -385,9 +427,13 @@ class Simulator:
     """
 
     def __init__(self, hand, target, obstacles: Sequence = (), params: Optional[SimParams] = None,
-                 mass: Optional[float] = None, **overrides):
+                 mass: Optional[float] = None, lift_direction=(0.0, 0.0, 1.0), **overrides):
         mujoco = import_mujoco()
         self.params = with_overrides(SimParams, params, overrides, "simulation")
+        lift = np.asarray(lift_direction, float).reshape(-1)
+        if lift.shape != (3,) or not np.isfinite(lift).all() or np.linalg.norm(lift) < 1e-9:
+            raise ValueError(f"lift_direction: expected a finite nonzero 3-vector, got {lift_direction!r}")
+        self.lift_direction = lift / np.linalg.norm(lift)
         p = self.params
         self.hand = hand if isinstance(hand, _core.Hand) else _core.load_hand(os.fspath(hand))
         self.target = _as_mesh(target, "target")
@@ -621,10 +667,11 @@ class Simulator:
             closing_t = float(np.linalg.norm(T1[:3, 3] - T0[:3, 3]))
             closing_r = _rotation_angle(T0[:3, :3].T @ T1[:3, :3])
             touching = self._touching(d)
-            for mid in self._mocap:                         # lift: the obstacles go away
-                d.mocap_pos[mid] = [1e3, 1e3, 1e3]
+            recede = Rw @ (-self.lift_direction)            # world direction the obstacles move in
+            lifted = not self._mocap
             slip_t = slip_r = 0.0
             outcome = "held"
+            failed = "closing" if closing_t > p.max_translation or closing_r > p.max_rotation else None
             t = 0.0
             check_every = max(1, int(round(0.005 / p.timestep)))
             step = 0
@@ -632,6 +679,15 @@ class Simulator:
                 g = load_profile(p, t)
                 if g is None:
                     break
+                if not lifted:                              # lift: the obstacles recede, then go away
+                    if t < p.turn_time:
+                        s = t / p.turn_time
+                        for mid in self._mocap:
+                            d.mocap_pos[mid] = to_world[:3, 3] + recede * p.lift_distance * (s * s * (3 - 2 * s))
+                    else:
+                        for mid in self._mocap:
+                            d.mocap_pos[mid] = [1e3, 1e3, 1e3]
+                        lifted = True
                 m.opt.gravity[:] = Rw @ g
                 mujoco.mj_step(m, d)
                 t += p.timestep
@@ -643,11 +699,14 @@ class Simulator:
                     T = self._relative(d)
                     slip_t = max(slip_t, float(np.linalg.norm(T[:3, 3] - T1[:3, 3])))
                     slip_r = max(slip_r, _rotation_angle(T1[:3, :3].T @ T[:3, :3]))
+                    if failed is None and (slip_t > p.max_translation or slip_r > p.max_rotation):
+                        failed = load_phase(p, t)
                     if slip_t > 5 * p.max_translation or slip_r > 5 * p.max_rotation:
                         outcome = "dropped"
                         break
             if unstable:
                 outcome, slip_t, slip_r = "unstable", math.inf, math.inf
+                failed = failed or (load_phase(p, t) if t > 0 else "closing")
             elif outcome == "held" and (slip_t > p.max_translation or slip_r > p.max_rotation):
                 outcome = "slipped"
         finally:
@@ -655,7 +714,8 @@ class Simulator:
             m.opt.gravity[:] = 0.0
         return SimResult(success=outcome == "held", outcome=outcome, slip_translation=slip_t, slip_rotation=slip_r,
                          closing_translation=closing_t, closing_rotation=closing_r, contact_links=touching,
-                         time_simulated=p.close_time + t, wall_time=time.perf_counter() - t_wall)
+                         time_simulated=p.close_time + t, wall_time=time.perf_counter() - t_wall,
+                         failed_phase=None if outcome == "held" else failed)
 
     def _override(self, friction, density):
         m = self.model
@@ -788,7 +848,8 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
     if support is not None:   # the table the target stood on while the hand closed, taken away for the load
         others.append(_core.support_box(support, target, SUPPORT_MARGIN))
     grasps = gf.grasps if top is None else gf.grasps[:top]
-    sim = Simulator(hand, target, others, params=params, mass=mass, **overrides)
+    lift = support.normal if support is not None else (0.0, 0.0, 1.0)
+    sim = Simulator(hand, target, others, params=params, mass=mass, lift_direction=lift, **overrides)
     per_grasp = []
     for k, g in enumerate(grasps):
         per_grasp.append(simulate_trials(sim, g.wrist_pose, g.dofs, perturbations))

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import pairgrasp as pg
+from pairgrasp import sim as sim_mod
 from test_mesh import icosphere                  # the mesh tests' construction
 
 mujoco = pytest.importorskip("mujoco", reason="the [sim] extra (install_deps.sh installs it)")
@@ -225,6 +226,7 @@ def test_antipodal_grasp_holds(jaw_sim):
     assert r.success and r.outcome == "held"
     assert set(r.contact_links) == {"pj_left_finger", "pj_right_finger"}
     assert r.slip_translation < 0.002                  # held by friction: compliance only
+    assert r.failed_phase is None
     assert r.time_simulated == pytest.approx(jaw_sim.params.duration, abs=2e-3)
 
 
@@ -241,6 +243,31 @@ def test_touching_one_face_only_drops(jaw_sim):
     r = jaw_sim.simulate(jaw_pose(z=0.12 + 0.12 - 0.0002), [0.03])
     assert r.outcome == "dropped"
     assert r.closing_translation > 0.005
+    assert r.failed_phase == "closing"
+
+
+def test_load_phases_name_the_gravity_the_profile_applies():
+    # Every "hold D" phase applies gravity exactly along D (target frame); the phases follow the
+    # procedure's order and durations: lift (turn_time), hold -z, 7 x (turn, hold), 3 shakes.
+    p = pg.SimParams()
+    axes = {"-z": (0, 0, -1), "+x": (1, 0, 0), "+y": (0, 1, 0), "-x": (-1, 0, 0), "-y": (0, -1, 0), "+z": (0, 0, 1)}
+    seg = p.turn_time + p.hold_time
+    assert pg.load_phase(p, 0.5 * p.turn_time) == "lift"
+    names = []
+    for k in range(8):
+        t = (p.turn_time + 0.5 * p.hold_time) if k == 0 else (k * seg + p.turn_time + 0.5 * p.hold_time)
+        name = pg.load_phase(p, t)
+        assert name.startswith("hold ")
+        np.testing.assert_allclose(sim_mod.load_profile(p, t), 9.81 * np.array(axes[name[5:]]), atol=1e-9)
+        names.append(name[5:])
+        if k:
+            assert pg.load_phase(p, k * seg + 0.5 * p.turn_time) == "turn " + name[5:]
+    assert names == ["-z", "+x", "+y", "-x", "-y", "+z", "+x", "-z"]
+    shakes = 8 * seg
+    assert [pg.load_phase(p, shakes + (i + 0.5) * p.shake_time) for i in range(3)] == ["shake x", "shake y", "shake z"]
+    end = p.duration - p.close_time
+    assert pg.load_phase(p, end - 1e-6) == "shake z" and pg.load_phase(p, end + 1e-6) is None
+    assert sim_mod.load_profile(p, end + 1e-6) is None
 
 
 def test_frictionless_grasp_drops(jaw_sim):
@@ -286,6 +313,8 @@ def test_obstacle_supports_the_object_while_closing_then_goes_away(tmp_path):
     held = rep.results[0]
     assert free.closing_translation > 0.005 and held.closing_translation < 0.001
     assert free.outcome == held.outcome == "dropped"
+    # the box falls as soon as the table recedes, while gravity fades in: the lift
+    assert (free.failed_phase, held.failed_phase) == ("closing", "lift")
     assert rep.counts["bodies"] == pg.Simulator(JAW, pg.load_mesh(BOX)).counts["bodies"] + 1
     assert rep.counts["pieces"]["obstacle_0"] == 1
     assert json.loads(path.read_text())["grasps"][0]["simulation"]["outcome"] == "dropped"
