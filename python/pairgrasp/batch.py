@@ -1,7 +1,7 @@
 """Planning over a set of targets: ``pairgrasp batch`` and :func:`plan_batch`.
 
-Each target is planned by a task that runs the ``plan`` command's code (``cli._planner_from_args``
-and ``cli._write_plan``) on copies of the files it is handed: the hand's folder, the target, the
+Each target is planned by a task that runs the ``plan`` command's code (``workflow.planner_from_files``
+and ``workflow.write_plan``) on copies of the files it is handed: the hand's folder, the target, the
 target's ``<stem>.paint.json`` when one lies beside it, and the obstacles. A task returns the files
 ``plan`` would write; the driver stores them in ``OUTDIR/<stem>/`` through a temporary folder and a
 rename, so a target's folder appears only when complete, and a folder already there means the target
@@ -15,7 +15,6 @@ carry the file contents, so the nodes need no shared file system, only pairgrasp
 """
 from __future__ import annotations
 
-import argparse
 import collections
 import csv
 import io
@@ -55,10 +54,6 @@ def _support_value(support):
     if len(point) != 3 or len(normal) != 3 or not all(map(math.isfinite, point + normal)) or not any(normal):
         raise ValueError(f"support: expected a finite point and a non-zero normal, got {support!r}")
     return (point, normal)
-
-
-# PlanParams fields the `plan` command line sets itself (the rest go to the Planner as they are).
-_PLAN_ARGS = ("schedule", "step", "top", "seed", "threads", "time_limit", "edge", "rank")
 
 
 def plan_batch(hand, targets: Sequence, out, engine: str = "local", *, address: Optional[str] = None,
@@ -284,7 +279,7 @@ def _unpack(item: Tuple[str, bytes], folder: str, names: Dict[str, str]) -> str:
 def _run_task(shared: dict, task: dict) -> dict:
     """Plans one target on copies of its files, as ``pairgrasp plan`` would; returns its summary row
     with ``files`` (name -> contents of what ``plan`` writes) and ``warnings``. Never raises."""
-    from .cli import _planner_from_args, _write_plan
+    from .workflow import planner_from_files, write_plan
 
     t0 = time.perf_counter()
     res = _row(task["target"], "failed")
@@ -302,19 +297,18 @@ def _run_task(shared: dict, task: dict) -> dict:
             names[spec] = hand["spec"]
             files = task["files"]
             options = dict(shared["options"])
-            args = argparse.Namespace(
-                hand=spec, target=_unpack(files["target"], os.path.join(tmp, "target"), names),
+            planner = planner_from_files(
+                spec, _unpack(files["target"], os.path.join(tmp, "target"), names),
                 paint=_unpack(files["paint"], os.path.join(tmp, "paint"), names) if files["paint"] else None,
-                occluder=None, viewpoint=shared["viewpoints"], scale=shared["scale"],
-                support=shared["support"], occluder_distance=shared["occluder_distance"],
-                obstacle=[_unpack(o, os.path.join(tmp, f"obstacle{k}"), names)
-                          for k, o in enumerate(shared["obstacles"])] or None,
-                **{k: options.pop(k, getattr(PlanParams, k)) for k in _PLAN_ARGS})
-            planner = _planner_from_args(args, names, **options)
+                viewpoints=shared["viewpoints"], scale=shared["scale"], support=shared["support"],
+                occluder_distance=shared["occluder_distance"],
+                obstacles=[_unpack(o, os.path.join(tmp, f"obstacle{k}"), names)
+                           for k, o in enumerate(shared["obstacles"])],
+                names=names, **options)
             result = planner.plan(progress=False)
             folder = os.path.join(tmp, "out")
             os.makedirs(folder)
-            _write_plan(planner, result, folder, shared["pictures"], os.path.basename(task["target"]))
+            write_plan(planner, result, folder, shared["pictures"], os.path.basename(task["target"]))
             res["files"] = {}
             for name in sorted(os.listdir(folder)):
                 with open(os.path.join(folder, name), "rb") as fh:

@@ -18,6 +18,7 @@ import warnings
 import numpy as np
 
 from . import _core
+from .workflow import finish_outdir, planner_from_files, write_plan
 
 
 class _Parser(argparse.ArgumentParser):
@@ -63,46 +64,15 @@ def _cmd_info(args) -> int:
     return 0
 
 
-def _planner_from_args(args, names=None, **extra):
-    """The Planner of a `plan` command line (``args``); ``extra``: further PlanParams fields.
-    ``names`` maps a file given to the name grasps.json records for it (a batch task plans on copies
-    of the files and records the originals); a file not in it is recorded as given."""
-    import pairgrasp as pg
-
-    for name, path in [("--hand", args.hand), ("--target", args.target), ("--paint", args.paint)] + \
-            [("--occluder", o) for o in (args.occluder or [])] + [("--obstacle", o) for o in (args.obstacle or [])]:
-        if path is not None and not os.path.isfile(path):
-            raise ValueError(f"{name}: {'not a file' if os.path.exists(path) else 'no such file'}: {path}")
-    target = pg.load_mesh(args.target, scale=args.scale)
+def _planner_from_args(args):
+    """The Planner of a `plan` (or `figures`) command line."""
     params = dict(schedule=args.schedule, step=args.step, top=args.top, seed=args.seed, threads=args.threads,
                   time_limit=args.time_limit, rank=args.rank)
     if args.edge is not None:
         params["edge"] = args.edge
-    params.update(extra)
-    viewpoints = np.asarray(args.viewpoint, float).reshape(-1, 3) if args.viewpoint else None
-    try:
-        planner = pg.Planner(args.hand, target, paint=args.paint,
-                             occluders=[pg.load_mesh(o, scale=args.scale) for o in (args.occluder or [])],
-                             viewpoints=viewpoints, support=args.support, occluder_distance=args.occluder_distance,
-                             obstacles=[pg.load_mesh(o, scale=args.scale) for o in (args.obstacle or [])], **params)
-    except ValueError as e:
-        if str(e).startswith("support:"):   # name the option as typed
-            raise ValueError("--" + str(e)) from None
-        if str(e).startswith("no free face left") and args.support is not None:
-            raise ValueError(f"--support: {e}") from None
-        raise
-    record = (lambda path: names.get(path, path)) if names else (lambda path: path)
-    planner.inputs["hand_spec"] = record(planner.inputs["hand_spec"])
-    planner.inputs["target"] = record(args.target)
-    if args.paint:
-        planner.inputs["paint"] = record(args.paint)
-    if args.occluder:
-        planner.inputs["occluders"] = [record(o) for o in args.occluder]
-    if args.obstacle:
-        planner.inputs["obstacles"] = [record(o) for o in args.obstacle]
-    if args.scale != 1.0:
-        planner.inputs["scale"] = args.scale
-    return planner
+    return planner_from_files(args.hand, args.target, paint=args.paint, occluders=args.occluder or (),
+                              obstacles=args.obstacle or (), viewpoints=args.viewpoint, support=args.support,
+                              occluder_distance=args.occluder_distance, scale=args.scale, **params)
 
 
 def _table(grasps, held=None) -> str:
@@ -122,38 +92,6 @@ def _table(grasps, held=None) -> str:
     return "\n".join(rows)
 
 
-def _finish_outdir(tmpdir: str, outdir: str):
-    """Moves the files written in ``tmpdir`` into ``outdir`` (created if needed), each by rename."""
-    os.makedirs(outdir, exist_ok=True)
-    for name in sorted(os.listdir(tmpdir)):
-        os.replace(os.path.join(tmpdir, name), os.path.join(outdir, name))
-
-
-def _write_plan(planner, result, folder: str, pictures: int, label: str, verify=None):
-    """Writes what `plan` leaves in its output folder into ``folder``: grasps.json and a picture of
-    each of the best ``pictures`` grasps (``label``: the target's name in their titles). ``verify``
-    (plan --verify-top): a function (path, document) that writes the document to path, simulates
-    the best grasps and re-ranks them, returning (grasps in the new order, {planned rank: success
-    rate}). Returns (number of pictures, grasps in their final order, that success map or None)."""
-    from . import render
-    from .grasps_file import load_grasps, write_grasps
-
-    doc = result.to_dict()
-    path = os.path.join(folder, "grasps.json")
-    grasps, held = result.grasps, None
-    if verify is not None:
-        grasps, held = verify(path, doc)
-        doc = load_grasps(path).document
-    names = []
-    for rank, g in enumerate(grasps[:pictures], start=1):
-        name = f"grasp_{rank:02d}.png"
-        render.draw_planned(planner, g, os.path.join(folder, name), label)
-        names.append(name)
-    doc["pictures"] = names
-    write_grasps(path, doc)
-    return len(names), grasps, held
-
-
 def _cmd_plan(args) -> int:
     out = args.output
     if os.path.exists(out) and not os.path.isdir(out):
@@ -171,9 +109,9 @@ def _cmd_plan(args) -> int:
     tmpdir = tempfile.mkdtemp(prefix=".pairgrasp-", dir=parent)
     try:
         verify = (lambda path, doc: _verify(args, planner, result, path, doc)) if args.verify_top else None
-        pictures, grasps, held = _write_plan(planner, result, tmpdir, args.pictures, os.path.basename(args.target),
+        pictures, grasps, held = write_plan(planner, result, tmpdir, args.pictures, os.path.basename(args.target),
                                              verify)
-        _finish_outdir(tmpdir, out)
+        finish_outdir(tmpdir, out)
     finally:
         shutil.rmtree(tmpdir, ignore_errors=True)
     c = result.counts
@@ -251,7 +189,7 @@ def _cmd_figures(args) -> int:
     try:
         f7 = render.figure7(planner, samples, os.path.join(tmpdir, f"fig7_{name}.png"), seed=args.seed)
         f8 = render.figure8(result.candidates, os.path.join(tmpdir, f"fig8_{name}.png"), title=name)
-        _finish_outdir(tmpdir, out)
+        finish_outdir(tmpdir, out)
     finally:
         shutil.rmtree(tmpdir, ignore_errors=True)
     print(f"wrote {os.path.join(out, os.path.basename(f7))} and {os.path.join(out, os.path.basename(f8))}")
