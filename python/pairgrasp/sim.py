@@ -200,6 +200,8 @@ class SimResult:
         failed_phase: None for a held grasp; else where the object first left a threshold:
             ``"closing"`` (it moved beyond them while the hand closed), or the load phase of
             :func:`load_phase` (``"lift"``, ``"hold -z"``, ``"turn +x"``, ..., ``"shake z"``).
+        start_backoff: how far (m) the hand was moved back along its approach before closing, so
+            that the links no closing DOF moves (the palm) start touching the object, not inside it.
     """
 
     success: bool
@@ -212,6 +214,7 @@ class SimResult:
     time_simulated: float
     wall_time: float
     failed_phase: Optional[str] = None
+    start_backoff: float = 0.0
 
     def to_dict(self) -> dict:
         """JSON-ready (an unstable run's infinite slips are null)."""
@@ -223,7 +226,8 @@ class SimResult:
                 "closing_rotation": round(float(self.closing_rotation), 9),
                 "contact_links": list(self.contact_links),
                 "time_simulated": round(float(self.time_simulated), 6),
-                "wall_time": round(float(self.wall_time), 4), "failed_phase": self.failed_phase}
+                "wall_time": round(float(self.wall_time), 4), "failed_phase": self.failed_phase,
+                "start_backoff": round(float(self.start_backoff), 9)}
 
 
 def _as_pose(T, where) -> np.ndarray:
@@ -483,6 +487,15 @@ class Simulator:
         self._mocap = [m.body_mocapid[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, b)] for b in self._obstacle_bodies]
         self._qadr = {j: int(m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j)])
                       for j in self.hand.joint_names}
+        # Links no closing DOF moves (the palm; the Barrett knuckles turn with the spread only).
+        h = self.hand
+        lo, hi = np.asarray(h.dof_lower, float), np.asarray(h.dof_upper, float)
+        mid = (lo + hi) / 2
+        closing = np.asarray(_core.closing_directions(h, mid), float)
+        T0, T1 = h.link_transforms(mid), h.link_transforms(mid + 0.1 * closing * (hi - lo))
+        static = {n for n in T0 if np.abs(np.asarray(T0[n]) - np.asarray(T1[n])).max() < 1e-12}
+        self._static_geoms = [g for g in range(m.ngeom) if g not in self._target_geoms and
+                              mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.geom_bodyid[g])) in static]
 
     # ----- scene construction -----
 
@@ -654,6 +667,24 @@ class Simulator:
                 i = h.dof_names.index(dof.name)
                 d.ctrl[k] = j0.ratio * goal[i] + j0.offset
             mujoco.mj_forward(m, d)
+            # Closing starts touching, not overlapping: the links no closing DOF moves (the palm)
+            # are moved back along the approach out of the object's convex pieces (the plan allows
+            # them a small depth; a penalty contact would resolve it in a few steps and throw the
+            # object out of the hand). In the hand's frame the object and the obstacles move instead.
+            approach = np.asarray(h.root_to_wrist, float)[:3, :3] @ np.asarray(h.approach, float)
+            start_backoff = 0.0
+            for _ in range(4):
+                depth = self._static_depth(d)
+                if depth <= 1e-5:
+                    break
+                step = depth + 1e-4
+                start_backoff += step
+                d.qpos[a:a + 3] += step * approach
+                for mid in self._mocap:
+                    d.mocap_pos[mid] += step * approach
+                mujoco.mj_forward(m, d)
+            to_world = to_world.copy()
+            to_world[:3, 3] += start_backoff * approach
             n_close = int(round(p.close_time / p.timestep))
             m.opt.gravity[:] = 0.0
             T0 = self._relative(d)
@@ -715,7 +746,7 @@ class Simulator:
         return SimResult(success=outcome == "held", outcome=outcome, slip_translation=slip_t, slip_rotation=slip_r,
                          closing_translation=closing_t, closing_rotation=closing_r, contact_links=touching,
                          time_simulated=p.close_time + t, wall_time=time.perf_counter() - t_wall,
-                         failed_phase=None if outcome == "held" else failed)
+                         failed_phase=None if outcome == "held" else failed, start_backoff=start_backoff)
 
     def _override(self, friction, density):
         m = self.model
@@ -743,6 +774,16 @@ class Simulator:
         """Recomputes the constants MuJoCo derives from the masses (the constraints' mass scaling)."""
         mujoco = import_mujoco()
         mujoco.mj_setConst(self.model, mujoco.MjData(self.model))
+
+    def _static_depth(self, d) -> float:
+        """Deepest overlap (m) of a link no closing DOF moves with the target's convex pieces."""
+        mujoco = import_mujoco()
+        fromto = np.zeros(6)
+        depth = 0.0
+        for g1 in self._static_geoms:
+            for g2 in self._target_geoms:
+                depth = max(depth, -float(mujoco.mj_geomDistance(self.model, d, g1, g2, 0.01, fromto)))
+        return depth
 
     def _relative(self, d) -> np.ndarray:
         """Pose of the target's body frame in the palm frame, with the centre of mass as translation."""

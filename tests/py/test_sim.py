@@ -227,7 +227,17 @@ def test_antipodal_grasp_holds(jaw_sim):
     assert set(r.contact_links) == {"pj_left_finger", "pj_right_finger"}
     assert r.slip_translation < 0.002                  # held by friction: compliance only
     assert r.failed_phase is None
+    assert r.start_backoff == 0.0                      # the base is 5 mm above the box: nothing to clear
     assert r.time_simulated == pytest.approx(jaw_sim.params.duration, abs=2e-3)
+
+
+def test_closing_starts_from_the_palm_touching_not_overlapping(jaw_sim):
+    # The jaw's base (z in [0, 0.05] of the wrist frame, moved by no closing DOF) placed 1 mm into the
+    # box's top face (z = 0.12): the hand is moved back along its approach by that 1 mm (plus the
+    # 0.1 mm margin) before closing, and the pads then hold the box as at the clear pose.
+    r = jaw_sim.simulate(jaw_pose(z=0.12 + 0.05 - 0.001), [0.06])
+    assert r.start_backoff == pytest.approx(0.0011, abs=2e-4)
+    assert r.outcome == "held" and r.closing_translation < 0.002
 
 
 def test_closing_on_air_drops(jaw_sim):
