@@ -298,6 +298,18 @@ void bind_collision(pyb::module_& m) {
       "hand"_a, "dofs"_a,
       "(D,) closing direction of each DOF at `dofs`: +1, -1, or 0 for DOFs that do not close the hand (the "
       "Barrett spread), from the motion of the active surfaces along their normals.");
+
+  m.def(
+      "closing_opposition",
+      [](const Hand& hand, const pyb::object& wrist_pose, const pyb::object& dofs, const Contacts& contacts) {
+        const Pose w = pose_from(wrist_pose, "wrist_pose");
+        const Eigen::VectorXd q = vector_from(dofs, "dofs");
+        return closing_opposition(hand, w, q, contacts);
+      },
+      "hand"_a, "wrist_pose"_a, "dofs"_a, "contacts"_a,
+      "How squarely the contacts a closing DOF does not move push back against its push on the object, the "
+      "least over the closing DOFs, in [-1, 1] (1: straight back; 0: only friction holds it; -1: nothing). "
+      "contacts: GraspChecker.contacts(wrist_pose, dofs).");
 }
 
 }  // namespace pairgrasp::py

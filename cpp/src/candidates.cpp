@@ -561,6 +561,14 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
                               : 0.0;
     });
   };
+  auto oppositions = [&](std::vector<RankedGrasp>& grasps) {
+    detail::parallel_for(grasps.size(), options_.threads, [&](std::size_t i) {
+      const GraspEvaluation& e = grasps[i].evaluation;
+      grasps[i].opposition = e.contacts.points.rows() > 0
+                                 ? closing_opposition(checker_.hand(), e.wrist, e.dofs, e.contacts)
+                                 : -1.0;
+    });
+  };
   std::vector<RankedGrasp> out;
   if (enclosure) {
     // Rank 1: the pool's force-closure grasp with the most distinct hand links in contact (Load: the
@@ -605,6 +613,7 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     if (robust) rescore(out);
   }
   if (!load) load_resistances(out);
+  oppositions(out);
   if (timings) {
     timings->robust = robust_seconds;
     timings->fine_tune = seconds_since(t_start) - robust_seconds;

@@ -554,5 +554,6 @@ class Planner:
                 contact_links=tuple(ev.contact_links), sample=np.array(c.dofs), aligned_pose=np.array(c.pose),
                 backoff=float(c.backoff), fine_tuned=bool(g.fine_tuned),
                 force_closure_probability=None if r is None else float(r.force_closure_probability),
-                robust_epsilon=None if r is None else float(r.epsilon), load_resistance=float(g.load_resistance)))
+                robust_epsilon=None if r is None else float(r.epsilon), load_resistance=float(g.load_resistance),
+                opposition=float(g.opposition)))
         return grasps, seconds["robust"]

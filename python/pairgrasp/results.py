@@ -38,6 +38,9 @@ class Grasp:
         load_resistance: the least pure force at the centre of mass, per unit total normal force,
             that the contacts can exert along the six load directions
             (:func:`pairgrasp.load_resistance`); None in a grasps file written before it was recorded.
+        opposition: how squarely the contacts a closing DOF does not move push back against its
+            push on the object, the least over the closing DOFs, in [-1, 1]
+            (:func:`pairgrasp.closing_opposition`); None in a file written before it was recorded.
     """
 
     rank: int
@@ -60,6 +63,7 @@ class Grasp:
     force_closure_probability: Optional[float] = None
     robust_epsilon: Optional[float] = None
     load_resistance: Optional[float] = None
+    opposition: Optional[float] = None
 
     def to_dict(self) -> dict:
         """JSON-ready dictionary (the grasps.json schema)."""
@@ -86,6 +90,8 @@ class Grasp:
             d["robust_epsilon"] = _round(self.robust_epsilon)
         if self.load_resistance is not None:
             d["load_resistance"] = _round(self.load_resistance)
+        if self.opposition is not None:
+            d["opposition"] = _round(self.opposition)
         return d
 
 

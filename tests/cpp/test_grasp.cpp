@@ -97,6 +97,67 @@ TEST(Grasp, ParallelJawClosesToTheBoxWidth) {
   EXPECT_EQ(c.occluded_count, 0);
 }
 
+namespace {
+
+// One contact per row: a point (target frame = wrist frame here), the target's outward normal, a link.
+Contacts contacts_of(const Hand& hand, const std::vector<std::tuple<Vector3d, Vector3d, std::string>>& rows) {
+  Contacts c;
+  c.points.resize(static_cast<Eigen::Index>(rows.size()), 3);
+  c.normals.resize(static_cast<Eigen::Index>(rows.size()), 3);
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    c.points.row(static_cast<Eigen::Index>(k)) = std::get<0>(rows[k]).transpose();
+    c.normals.row(static_cast<Eigen::Index>(k)) = std::get<1>(rows[k]).normalized().transpose();
+    c.links.push_back(hand.link_index(std::get<2>(rows[k])));
+    c.link_names.push_back(std::get<2>(rows[k]));
+  }
+  return c;
+}
+
+}  // namespace
+
+TEST(Grasp, ClosingOppositionOfTheJawsPadsAndOfAFingerAgainstThePalm) {
+  // Parallel jaw on the box: one DOF moves both pads and their pushes (+x and -x) cancel: 1.
+  const Hand jaw = th::parallel_jaw();
+  CheckOptions opt;
+  opt.contact_gap = 0.001;
+  const GraspChecker checker(jaw, jaw_box(), Mask(), {}, opt);
+  const CloseResult r = close_fingers(checker, Pose::Identity(), dofs1(0.08));
+  const Contacts both = find_contacts(checker, Pose::Identity(), r.dofs);
+  EXPECT_NEAR(closing_opposition(jaw, Pose::Identity(), r.dofs, both), 1.0, 1e-9);
+  // One pad only (the left pad's contacts): nothing pushes back, its own pushes do not cancel.
+  std::vector<std::tuple<Vector3d, Vector3d, std::string>> left;
+  for (int k = 0; k < both.points.rows(); ++k)
+    if (both.link_names[k] == "pj_left_finger")
+      left.emplace_back(both.points.row(k).transpose(), both.normals.row(k).transpose(), both.link_names[k]);
+  EXPECT_NEAR(closing_opposition(jaw, Pose::Identity(), r.dofs, contacts_of(jaw, left)), 0.0, 1e-9);
+
+  // Barrett, a wrist turned and moved: a contact on finger 3's distal link whose inward normal is
+  // the direction the link closes in there (so it pushes along it), and a palm contact whose
+  // inward normal makes the angle a with the reverse of that push: the opposition is cos(a).
+  const Hand bh = th::barrett();
+  const Eigen::Vector4d q(0.3, 0.8, 0.8, 0.8);
+  Pose wrist = Pose::Identity();
+  wrist.linear() = Eigen::AngleAxisd(0.7, Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  wrist.translation() = Vector3d(0.1, -0.2, 0.05);
+  const int f3 = bh.link_index("bh_f3_dist");
+  const Vector3d tip_local = bh.links()[f3].mesh.vertices.colwise().mean().transpose();  // a point on the link
+  Eigen::Vector4d q1 = q;
+  q1[3] += 1e-3;
+  const Vector3d a0 = bh.link_poses(q)[f3] * tip_local, a1 = bh.link_poses(q1)[f3] * tip_local;
+  const Vector3d u = wrist.linear() * (a1 - a0).normalized();  // closing motion, target frame
+  const Vector3d p = wrist * a0;
+  const Vector3d side = u.unitOrthogonal();
+  for (double a : {0.0, 0.4, 1.0, 1.5}) {
+    // the palm's inward normal is cos(a) (-u) + sin(a) side; outward normals are their negatives
+    const Vector3d palm_in = std::cos(a) * -u + std::sin(a) * side;
+    const Contacts c = contacts_of(bh, {{p, -u, "bh_f3_dist"}, {wrist * Vector3d(0, 0, 0.08), -palm_in, "bh_palm"}});
+    EXPECT_NEAR(closing_opposition(bh, wrist, q, c), std::cos(a), 1e-6) << "a = " << a;
+  }
+  // No closing DOF moves a contact (the palm only): -1.
+  EXPECT_EQ(closing_opposition(bh, wrist, q, contacts_of(bh, {{p, u, "bh_palm"}})), -1.0);
+  EXPECT_THROW(closing_opposition(bh, wrist, Eigen::VectorXd::Zero(3), contacts_of(bh, {})), std::invalid_argument);
+}
+
 TEST(Grasp, ContactsOnOccludedFacesAreOnlyCounted) {
   const Hand jaw = th::parallel_jaw();
   const Mesh box = jaw_box();

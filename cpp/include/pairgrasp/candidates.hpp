@@ -115,6 +115,9 @@ struct RankedGrasp {
   /// load_resistance() of every contact (quality.hpp): the least pure force at the centre of mass
   /// along the six load directions, per unit total normal force; 0 when not force-closure.
   double load_resistance = 0.0;
+  /// closing_opposition() of every contact (grasp.hpp): how squarely the contacts a closing DOF
+  /// does not move push back against its push, the least over the DOFs; -1 without contacts.
+  double opposition = -1.0;
   /// Force closure and epsilon under perturbations (Ranking::Robust only).
   std::optional<RobustQuality> robust;
 };
