@@ -127,17 +127,23 @@ def blank_record(obj, hand, mode, height, repeat):
             "sim_outcome": None, "sim_wall": None, "sim_error": None, "error": None, "reason": None}
 
 
-def one_run(obj, files, hand, mode, out, threads, repeat, timeout, simulate=True):
-    rec = blank_record(obj, hand, mode, files["height"], repeat)
+def plan_command(obj, files, hand, mode, out, threads, top):
+    """(the run's folder, created; the `pairgrasp plan` command line of that object, hand and mode)."""
     run_dir = os.path.join(out, "runs", hand, mode, obj.name)
     os.makedirs(run_dir, exist_ok=True)
     target = files["free"] if mode == "free" else files["rest"]
-    cmd = pairgrasp_cmd("plan", "--hand", HANDS[hand], "--target", target, "--top", TOP, "--seed", SEED,
+    cmd = pairgrasp_cmd("plan", "--hand", HANDS[hand], "--target", target, "--top", top, "--seed", SEED,
                         "--pictures", 0, "--quiet", "--threads", threads, "-o", run_dir)
     if mode == "support":
         cmd.append("--support")
     elif mode == "mesh":
         cmd += ["--obstacle", files["table"], "--occluder", files["table"]]
+    return run_dir, cmd
+
+
+def one_run(obj, files, hand, mode, out, threads, repeat, timeout, simulate=True):
+    rec = blank_record(obj, hand, mode, files["height"], repeat)
+    run_dir, cmd = plan_command(obj, files, hand, mode, out, threads, TOP)
     walls = []
     gpath = os.path.join(run_dir, "grasps.json")
     for _ in range(repeat):
@@ -288,6 +294,19 @@ def per_run_table(runs):
 
 # ----------------------------------------------------------------- main
 
+def hands_and_modes(ap, hands_arg: str, modes_arg: str, known_modes):
+    """The comma-separated --hands and --modes as lists; an unknown name is the parser's error."""
+    hands = [h for h in hands_arg.split(",") if h]
+    modes = [m for m in modes_arg.split(",") if m]
+    for h in hands:
+        if h not in HANDS:
+            ap.error(f"unknown hand {h!r} (one of {', '.join(HANDS)})")
+    for m in modes:
+        if m not in known_modes:
+            ap.error(f"unknown mode {m!r} (one of {', '.join(known_modes)})")
+    return hands, modes
+
+
 def load_runs(path):
     runs = {}
     if os.path.exists(path):
@@ -322,14 +341,7 @@ def main(argv=None):
     ap.add_argument("--markdown", default=None, help="write the summary and the per-run table here")
     args = ap.parse_args(argv)
 
-    hands = [h for h in args.hands.split(",") if h]
-    modes = [m for m in args.modes.split(",") if m]
-    for h in hands:
-        if h not in HANDS:
-            ap.error(f"unknown hand {h!r} (one of {', '.join(HANDS)})")
-    for m in modes:
-        if m not in MODES:
-            ap.error(f"unknown mode {m!r} (one of {', '.join(MODES)})")
+    hands, modes = hands_and_modes(ap, args.hands, args.modes, MODES)
     threads = args.threads or max(1, (os.cpu_count() or 1) // max(1, args.jobs))
 
     objs = objset.load_objects(None if args.split == "all" else args.split)
