@@ -56,7 +56,7 @@ from bench_scenes import SEED  # noqa: E402  (the plan and the trials use the sc
 
 def finger_measures(hand, grasp):
     """(opposition, drive) of a planned grasp from its recorded contacts. opposition is
-    :func:`pairgrasp.closing_opposition`'s measure (recomputed here for files written before the
+    :func:`pairgrasp.closing_push`'s measures (recomputed here for files written before the
     planner recorded it): for each closing DOF, the push of the contacts it moves, opposed by how
     far those pushes cancel and by the most squarely opposed other contact; the least over the
     DOFs. drive is the least over the closing DOFs of the largest cosine between a contact's closing
@@ -119,7 +119,7 @@ def measures(hand, grasp) -> dict:
             "links": len({c["link"] for c in contacts}),
             "palm": any(c["link"] == hand.wrist_link for c in contacts),
             "opposition": round(grasp["opposition"] if grasp.get("opposition") is not None else opp, 4),
-            "drive": round(drive, 4),
+            "drive": round(grasp["drive"] if grasp.get("drive") is not None else drive, 4),
             "dof": [round(float(v), 4) for v in grasp["dof"]],
             "approach": [round(float(v), 4) for v in np.asarray(grasp["wrist_pose"], float)[:3, :3]
                          @ np.asarray(hand.approach, float)]}

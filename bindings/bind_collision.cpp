@@ -299,17 +299,27 @@ void bind_collision(pyb::module_& m) {
       "(D,) closing direction of each DOF at `dofs`: +1, -1, or 0 for DOFs that do not close the hand (the "
       "Barrett spread), from the motion of the active surfaces along their normals.");
 
+  pyb::class_<ClosingPush>(m, "ClosingPush",
+                           "How each closing DOF's push on the object is met, least over the closing DOFs, in [-1, 1].")
+      .def_readonly("opposition", &ClosingPush::opposition,
+                    "How squarely the contacts it does not move (and its own, cancelling) push back: 1 straight "
+                    "back, 0 only friction, -1 nothing.")
+      .def_readonly("drive", &ClosingPush::drive,
+                    "Largest cosine between a contact's closing motion and its inward normal: 1 into the "
+                    "surface, near 0 sliding along it.")
+      .def("__repr__", [](const ClosingPush& p) {
+        return "ClosingPush(opposition=" + std::to_string(p.opposition) + ", drive=" + std::to_string(p.drive) + ")";
+      });
   m.def(
-      "closing_opposition",
+      "closing_push",
       [](const Hand& hand, const pyb::object& wrist_pose, const pyb::object& dofs, const Contacts& contacts) {
         const Pose w = pose_from(wrist_pose, "wrist_pose");
         const Eigen::VectorXd q = vector_from(dofs, "dofs");
-        return closing_opposition(hand, w, q, contacts);
+        return closing_push(hand, w, q, contacts);
       },
       "hand"_a, "wrist_pose"_a, "dofs"_a, "contacts"_a,
-      "How squarely the contacts a closing DOF does not move push back against its push on the object, the "
-      "least over the closing DOFs, in [-1, 1] (1: straight back; 0: only friction holds it; -1: nothing). "
-      "contacts: GraspChecker.contacts(wrist_pose, dofs).");
+      "ClosingPush (opposition, drive) of a grasp's contacts (GraspChecker.contacts(wrist_pose, dofs)) at "
+      "(wrist_pose, dofs): how squarely each closing DOF pushes into the surface and is pushed back.");
 }
 
 }  // namespace pairgrasp::py

@@ -380,9 +380,8 @@ void bind_planning(pyb::module_& m) {
       .def_property_readonly("force_closure", [](const RankedGrasp& g) { return g.quality.force_closure; })
       .def_readonly("load_resistance", &RankedGrasp::load_resistance,
                     "Least pure force at the centre of mass along the six load directions, every contact.")
-      .def_readonly("opposition", &RankedGrasp::opposition,
-                    "closing_opposition() of every contact: how squarely the contacts a closing DOF does not move "
-                    "push back against its push (least over the DOFs).");
+      .def_readonly("push", &RankedGrasp::push,
+                    "closing_push() of every contact: ClosingPush (opposition, drive), least over the closing DOFs.");
 
   pyb::class_<CandidatePipeline>(
       m, "CandidatePipeline",

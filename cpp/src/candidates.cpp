@@ -561,12 +561,11 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
                               : 0.0;
     });
   };
-  auto oppositions = [&](std::vector<RankedGrasp>& grasps) {
+  auto pushes = [&](std::vector<RankedGrasp>& grasps) {
     detail::parallel_for(grasps.size(), options_.threads, [&](std::size_t i) {
       const GraspEvaluation& e = grasps[i].evaluation;
-      grasps[i].opposition = e.contacts.points.rows() > 0
-                                 ? closing_opposition(checker_.hand(), e.wrist, e.dofs, e.contacts)
-                                 : -1.0;
+      grasps[i].push = e.contacts.points.rows() > 0 ? closing_push(checker_.hand(), e.wrist, e.dofs, e.contacts)
+                                                    : ClosingPush();
     });
   };
   std::vector<RankedGrasp> out;
@@ -574,13 +573,18 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     // Rank 1: the pool's force-closure grasp with the most distinct hand links in contact (Load: the
     // largest load resistance), then the search's epsilon. The rest: the pool's next best by the
     // search's epsilon, scored with every contact and ordered as the epsilon ranking orders them.
-    if (load) load_resistances(chosen);
+    if (load) {
+      load_resistances(chosen);
+      pushes(chosen);
+    }
     auto lead_key = [&](std::size_t i) {
       const GraspQuality& q = chosen[i].evaluation.quality;
       const std::vector<int>& links = chosen[i].evaluation.contacts.links;
       const double measure = load ? chosen[i].load_resistance
                                   : static_cast<double>(std::set<int>(links.begin(), links.end()).size());
-      return std::make_tuple(q.force_closure, measure, q.epsilon, -static_cast<long>(i));
+      const ClosingPush& push = chosen[i].push;
+      const bool opposed = !load || (push.opposition >= options.min_opposition && push.drive >= options.min_drive);
+      return std::make_tuple(q.force_closure, opposed, measure, q.epsilon, -static_cast<long>(i));
     };
     std::size_t lead = 0;
     for (std::size_t i = 1; i < chosen.size(); ++i)
@@ -613,7 +617,7 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     if (robust) rescore(out);
   }
   if (!load) load_resistances(out);
-  oppositions(out);
+  pushes(out);
   if (timings) {
     timings->robust = robust_seconds;
     timings->fine_tune = seconds_since(t_start) - robust_seconds;

@@ -1,4 +1,4 @@
-// closing_opposition(): how squarely the other contacts push back against each closing DOF's push.
+// closing_push(): how squarely each closing DOF pushes into the surface and is pushed back.
 #include <pairgrasp/grasp.hpp>
 
 #include <algorithm>
@@ -9,14 +9,13 @@ namespace pairgrasp {
 
 using Vec3 = Eigen::Vector3d;
 
-double closing_opposition(const Hand& hand, const Pose& wrist, const Eigen::VectorXd& dofs,
-                          const Contacts& contacts) {
+ClosingPush closing_push(const Hand& hand, const Pose& wrist, const Eigen::VectorXd& dofs, const Contacts& contacts) {
   const Eigen::VectorXi dirs = closing_directions(hand, dofs);  // validates dofs
   const std::vector<Pose> p0 = hand.link_poses(dofs);
   const Eigen::VectorXd lo = hand.dof_lower(), hi = hand.dof_upper();
   const Eigen::Index C = contacts.points.rows();
   const Pose to_wrist = wrist.inverse();
-  double worst = 2.0;
+  double worst = 2.0, least_drive = 2.0;
   for (Eigen::Index k = 0; k < dofs.size(); ++k) {
     if (dirs[k] == 0) continue;
     const double delta = 1e-6 * (hi[k] - lo[k]);
@@ -26,7 +25,7 @@ double closing_opposition(const Hand& hand, const Pose& wrist, const Eigen::Vect
     q1[k] += step;
     const std::vector<Pose> p1 = hand.link_poses(q1, true);
     Vec3 push = Vec3::Zero();
-    double weight = 0.0;
+    double weight = 0.0, drive = -1.0;
     std::vector<char> moved(static_cast<std::size_t>(C), 0);
     for (Eigen::Index c = 0; c < C; ++c) {
       const int l = contacts.links[static_cast<std::size_t>(c)];
@@ -39,8 +38,10 @@ double closing_opposition(const Hand& hand, const Pose& wrist, const Eigen::Vect
       const Vec3 in = -contacts.normals.row(c).transpose();
       push += in * std::max(0.0, in.dot(v));
       weight += std::max(0.0, in.dot(v));
+      drive = std::max(drive, in.dot(v));
     }
-    if (!(weight > 0.0)) continue;
+    if (!(weight > 0.0)) continue;  // it pushes into none of its contacts (closing away from them)
+    least_drive = std::min(least_drive, drive);
     // Its own contacts balance one another as far as their pushes cancel (a parallel jaw's two pads
     // move with one DOF); the others push back as squarely as their best normal.
     double best = 1.0 - push.norm() / weight;
@@ -53,7 +54,10 @@ double closing_opposition(const Hand& hand, const Pose& wrist, const Eigen::Vect
       if (!moved[static_cast<std::size_t>(c)]) best = std::max(best, -contacts.normals.row(c).dot(back));
     worst = std::min(worst, best);
   }
-  return worst > 1.5 ? -1.0 : worst;
+  ClosingPush out;
+  if (worst <= 1.5) out.opposition = worst;
+  if (least_drive <= 1.5) out.drive = least_drive;
+  return out;
 }
 
 }  // namespace pairgrasp

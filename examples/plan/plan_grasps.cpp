@@ -194,7 +194,8 @@ int main(int argc, char** argv) {
              << ", \"sample\": " << list(c.candidate.dofs) << ", \"aligned_pose\": " << matrix(c.candidate.pose)
              << ", \"backoff\": " << num(c.backoff) << ", \"fine_tuned\": " << (g.fine_tuned ? "true" : "false")
              << ", \"load_resistance\": " << num(g.load_resistance)
-         << ", \"opposition\": " << num(g.opposition);
+         << ", \"opposition\": " << num(g.push.opposition)
+             << ", \"drive\": " << num(g.push.drive);
       if (g.robust)
         grasps << ", \"force_closure_probability\": " << num(g.robust->force_closure_probability)
                << ", \"robust_epsilon\": " << num(g.robust->epsilon);

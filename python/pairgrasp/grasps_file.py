@@ -161,10 +161,11 @@ def _grasp(d, where, hand) -> Grasp:
             if robust[key] < 0 or (key == "force_closure_probability" and robust[key] > 1):
                 raise _Bad(f"{where}.{key}: expected a number in [0, {'1' if key[0] == 'f' else 'inf'}), got "
                            f"{robust[key]:g}")
-    if d.get("opposition") is not None:                                                     # optional
-        robust["opposition"] = _number(d["opposition"], f"{where}.opposition")
-        if not -1.0 <= robust["opposition"] <= 1.0:
-            raise _Bad(f"{where}.opposition: expected a number in [-1, 1], got {robust['opposition']:g}")
+    for key in ("opposition", "drive"):                                                     # optional
+        if d.get(key) is not None:
+            robust[key] = _number(d[key], f"{where}.{key}")
+            if not -1.0 <= robust[key] <= 1.0:
+                raise _Bad(f"{where}.{key}: expected a number in [-1, 1], got {robust[key]:g}")
     return Grasp(rank=rank, wrist_pose=pose, dofs=dofs, joints=joints, epsilon=scalars["epsilon"], volume=volume,
                  force_closure=fc, alignment_quality=scalars["alignment_quality"], votes=votes,
                  penetration_depth=scalars["penetration_depth"],

@@ -555,5 +555,5 @@ class Planner:
                 backoff=float(c.backoff), fine_tuned=bool(g.fine_tuned),
                 force_closure_probability=None if r is None else float(r.force_closure_probability),
                 robust_epsilon=None if r is None else float(r.epsilon), load_resistance=float(g.load_resistance),
-                opposition=float(g.opposition)))
+                opposition=float(g.push.opposition), drive=float(g.push.drive)))
         return grasps, seconds["robust"]

@@ -38,9 +38,10 @@ class Grasp:
         load_resistance: the least pure force at the centre of mass, per unit total normal force,
             that the contacts can exert along the six load directions
             (:func:`pairgrasp.load_resistance`); None in a grasps file written before it was recorded.
-        opposition: how squarely the contacts a closing DOF does not move push back against its
-            push on the object, the least over the closing DOFs, in [-1, 1]
-            (:func:`pairgrasp.closing_opposition`); None in a file written before it was recorded.
+        opposition, drive: how squarely the contacts a closing DOF does not move push back against
+            its push on the object, and how squarely it closes into the surface, each the least over
+            the closing DOFs, in [-1, 1] (:func:`pairgrasp.closing_push`); None in a file written
+            before they were recorded.
     """
 
     rank: int
@@ -64,6 +65,7 @@ class Grasp:
     robust_epsilon: Optional[float] = None
     load_resistance: Optional[float] = None
     opposition: Optional[float] = None
+    drive: Optional[float] = None
 
     def to_dict(self) -> dict:
         """JSON-ready dictionary (the grasps.json schema)."""
@@ -92,6 +94,8 @@ class Grasp:
             d["load_resistance"] = _round(self.load_resistance)
         if self.opposition is not None:
             d["opposition"] = _round(self.opposition)
+        if self.drive is not None:
+            d["drive"] = _round(self.drive)
         return d
 
 

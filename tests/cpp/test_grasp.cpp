@@ -115,7 +115,7 @@ Contacts contacts_of(const Hand& hand, const std::vector<std::tuple<Vector3d, Ve
 
 }  // namespace
 
-TEST(Grasp, ClosingOppositionOfTheJawsPadsAndOfAFingerAgainstThePalm) {
+TEST(Grasp, ClosingPushOfTheJawsPadsAndOfAFingerAgainstThePalm) {
   // Parallel jaw on the box: one DOF moves both pads and their pushes (+x and -x) cancel: 1.
   const Hand jaw = th::parallel_jaw();
   CheckOptions opt;
@@ -123,13 +123,15 @@ TEST(Grasp, ClosingOppositionOfTheJawsPadsAndOfAFingerAgainstThePalm) {
   const GraspChecker checker(jaw, jaw_box(), Mask(), {}, opt);
   const CloseResult r = close_fingers(checker, Pose::Identity(), dofs1(0.08));
   const Contacts both = find_contacts(checker, Pose::Identity(), r.dofs);
-  EXPECT_NEAR(closing_opposition(jaw, Pose::Identity(), r.dofs, both), 1.0, 1e-9);
+  const ClosingPush jaw_push = closing_push(jaw, Pose::Identity(), r.dofs, both);
+  EXPECT_NEAR(jaw_push.opposition, 1.0, 1e-9);
+  EXPECT_NEAR(jaw_push.drive, 1.0, 1e-9);  // the pads close straight into the faces
   // One pad only (the left pad's contacts): nothing pushes back, its own pushes do not cancel.
   std::vector<std::tuple<Vector3d, Vector3d, std::string>> left;
   for (int k = 0; k < both.points.rows(); ++k)
     if (both.link_names[k] == "pj_left_finger")
       left.emplace_back(both.points.row(k).transpose(), both.normals.row(k).transpose(), both.link_names[k]);
-  EXPECT_NEAR(closing_opposition(jaw, Pose::Identity(), r.dofs, contacts_of(jaw, left)), 0.0, 1e-9);
+  EXPECT_NEAR(closing_push(jaw, Pose::Identity(), r.dofs, contacts_of(jaw, left)).opposition, 0.0, 1e-9);
 
   // Barrett, a wrist turned and moved: a contact on finger 3's distal link whose inward normal is
   // the direction the link closes in there (so it pushes along it), and a palm contact whose
@@ -151,11 +153,15 @@ TEST(Grasp, ClosingOppositionOfTheJawsPadsAndOfAFingerAgainstThePalm) {
     // the palm's inward normal is cos(a) (-u) + sin(a) side; outward normals are their negatives
     const Vector3d palm_in = std::cos(a) * -u + std::sin(a) * side;
     const Contacts c = contacts_of(bh, {{p, -u, "bh_f3_dist"}, {wrist * Vector3d(0, 0, 0.08), -palm_in, "bh_palm"}});
-    EXPECT_NEAR(closing_opposition(bh, wrist, q, c), std::cos(a), 1e-6) << "a = " << a;
+    const ClosingPush push = closing_push(bh, wrist, q, c);
+    EXPECT_NEAR(push.opposition, std::cos(a), 1e-6) << "a = " << a;
+    EXPECT_NEAR(push.drive, 1.0, 1e-6);  // the finger's contact normal is its closing motion
   }
   // No closing DOF moves a contact (the palm only): -1.
-  EXPECT_EQ(closing_opposition(bh, wrist, q, contacts_of(bh, {{p, u, "bh_palm"}})), -1.0);
-  EXPECT_THROW(closing_opposition(bh, wrist, Eigen::VectorXd::Zero(3), contacts_of(bh, {})), std::invalid_argument);
+  const ClosingPush none = closing_push(bh, wrist, q, contacts_of(bh, {{p, u, "bh_palm"}}));
+  EXPECT_EQ(none.opposition, -1.0);
+  EXPECT_EQ(none.drive, -1.0);
+  EXPECT_THROW(closing_push(bh, wrist, Eigen::VectorXd::Zero(3), contacts_of(bh, {})), std::invalid_argument);
 }
 
 TEST(Grasp, ContactsOnOccludedFacesAreOnlyCounted) {

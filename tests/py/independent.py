@@ -200,3 +200,38 @@ def torque_reference(mesh: trimesh.Trimesh):
     """(centre of mass, largest vertex distance from it): the torque origin and scale."""
     c = np.asarray(mesh.center_mass, float)
     return c, float(np.linalg.norm(mesh.vertices - c, axis=1).max())
+
+
+def closing_push(hand, wrist, dofs, points, normals, links, dirs):
+    """pairgrasp.closing_push computed independently, by finite differences of Hand.link_transforms,
+    for the closing directions ``dirs`` (+1 / -1 / 0 per DOF). Returns (opposition, drive)."""
+    dirs = np.asarray(dirs)
+    Wi = np.linalg.inv(wrist)
+    T0 = hand.link_transforms(dofs)
+    worst = least_drive = None
+    for k in np.nonzero(dirs)[0]:
+        q1 = np.array(dofs, float)
+        h = 1e-6 if hand.dof_lower[k] <= q1[k] + 1e-6 * dirs[k] <= hand.dof_upper[k] else -1e-6
+        q1[k] += h * dirs[k]
+        T1 = hand.link_transforms(q1)
+        push, weight, moved, drive = np.zeros(3), 0.0, [], -1.0
+        for p, n, link in zip(points, normals, links):
+            x = Wi[:3, :3] @ p + Wi[:3, 3]
+            A = np.asarray(T1[link]) @ np.linalg.inv(np.asarray(T0[link]))
+            v = wrist[:3, :3] @ (A[:3, :3] @ x + A[:3, 3] - x)
+            moving = np.linalg.norm(v) > 1e-9
+            moved.append(moving)
+            if moving:
+                u = v / np.linalg.norm(v) * np.sign(h)
+                push += -n * max(0.0, -n @ u)
+                weight += max(0.0, -n @ u)
+                drive = max(drive, float(-n @ u))
+        if weight == 0:
+            continue
+        o = 1 - np.linalg.norm(push) / weight
+        still = [-n for n, m in zip(normals, moved) if not m]
+        if still:
+            o = max(o, max(float(f @ (-push / np.linalg.norm(push))) for f in still))
+        worst = o if worst is None else min(worst, o)
+        least_drive = drive if least_drive is None else min(least_drive, drive)
+    return (-1.0 if worst is None else worst), (-1.0 if least_drive is None else least_drive)

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import pairgrasp as pg
+import independent
 
 MODELS = pathlib.Path(__file__).resolve().parents[2] / "models"
 
@@ -250,39 +251,7 @@ def test_fine_tune_barrett_flask():
     np.testing.assert_array_equal(a.best.wrist_pose, b.best.wrist_pose)
 
 
-def _opposition_by_hand(hand, wrist, dofs, points, normals, links):
-    """closing_opposition computed independently: finite differences of Hand.link_transforms."""
-    dirs = np.asarray(pg.closing_directions(hand, dofs))
-    Wi = np.linalg.inv(wrist)
-    T0 = hand.link_transforms(dofs)
-    worst = None
-    for k in np.nonzero(dirs)[0]:
-        q1 = np.array(dofs, float)
-        h = 1e-6 if q1[k] + 1e-6 * dirs[k] <= hand.dof_upper[k] and q1[k] + 1e-6 * dirs[k] >= hand.dof_lower[k] else -1e-6
-        q1[k] += h * dirs[k]
-        T1 = hand.link_transforms(q1)
-        push, weight, moved = np.zeros(3), 0.0, []
-        for p, n, link in zip(points, normals, links):
-            x = Wi[:3, :3] @ p + Wi[:3, 3]
-            A = np.asarray(T1[link]) @ np.linalg.inv(np.asarray(T0[link]))
-            v = wrist[:3, :3] @ (A[:3, :3] @ x + A[:3, 3] - x)
-            moving = np.linalg.norm(v) > 1e-9
-            moved.append(moving)
-            if moving:
-                u = v / np.linalg.norm(v) * np.sign(h)
-                push += -n * max(0.0, -n @ u)
-                weight += max(0.0, -n @ u)
-        if weight == 0:
-            continue
-        o = 1 - np.linalg.norm(push) / weight
-        still = [-n for n, m in zip(normals, moved) if not m]
-        if still:
-            o = max(o, max(float(f @ (-push / np.linalg.norm(push))) for f in still))
-        worst = o if worst is None else min(worst, o)
-    return -1.0 if worst is None else worst
-
-
-def test_closing_opposition_matches_an_independent_computation(barrett_mug):
+def test_closing_push_matches_an_independent_computation(barrett_mug):
     # The Barrett hand closed on the mug from the side at several spreads: contacts on the palm and
     # several finger links; the library's measure equals the one computed here from the forward
     # kinematics alone.
@@ -297,10 +266,10 @@ def test_closing_opposition_matches_an_independent_computation(barrett_mug):
         if e.pruned or len(e.contact_points) == 0:
             continue
         c = checker.contacts(w, e.dofs)
-        got = pg.closing_opposition(hand, w, e.dofs, c)
-        want = _opposition_by_hand(hand, w, np.asarray(e.dofs), np.asarray(c.points), np.asarray(c.normals),
-                                   list(c.link_names))
-        assert got == pytest.approx(want, abs=1e-4), (spread, standoff, z)
-        assert -1.0 <= got <= 1.0
+        push = pg.closing_push(hand, w, e.dofs, c)
+        want = independent.closing_push(hand, w, np.asarray(e.dofs), np.asarray(c.points), np.asarray(c.normals),
+                                   list(c.link_names), pg.closing_directions(hand, e.dofs))
+        assert (push.opposition, push.drive) == pytest.approx(want, abs=1e-4), (spread, standoff, z)
+        assert -1.0 <= push.opposition <= 1.0 and -1.0 <= push.drive <= 1.0
         seen += 1
     assert seen >= 4

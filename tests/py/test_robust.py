@@ -299,7 +299,8 @@ def test_the_enclosure_ranking_leads_with_the_most_enclosing_of_the_epsilon_rank
 
 
 def test_the_load_ranking_leads_with_the_grasp_that_resists_gravity_best(barrett_flask, epsilon_ten):
-    # rank="load" picks its rank 1 from the same pool: the force-closure grasp whose contacts resist a
+    # rank="load" picks its rank 1 from the same pool: of the force-closure grasps whose fingers are
+    # opposed (below), the one whose contacts resist a
     # pure force at the centre of mass best along their worst of +-x, +-y, +-z, measured here with
     # SciPy's hull of independently built wrenches (tests/py/independent.py). Every returned grasp
     # records that value; the others follow in the epsilon ranking's order.
@@ -318,9 +319,18 @@ def test_the_load_ranking_leads_with_the_grasp_that_resists_gravity_best(barrett
         assert g.load_resistance == pytest.approx(resist(g), rel=1e-6, abs=1e-12)
         if g.force_closure:
             assert g.load_resistance >= g.epsilon * (1 - 1e-9)
+    # Rank 1 is taken among the force-closure grasps whose fingers close into the surface and are
+    # pushed back (opposition and drive >= 0.5, measured here from each grasp's contacts), when any.
+    def push(g):
+        return independent.closing_push(planner.hand, g.wrist_pose, g.dofs, g.contact_points, g.contact_normals,
+                                        g.contact_links, pg.closing_directions(planner.hand, g.dofs))
+    for g in load.grasps + eps.grasps:
+        assert (g.opposition, g.drive) == pytest.approx(push(g), abs=1e-4)
+    fc = [g for g in eps.grasps if g.force_closure]
+    opposed = [g for g in fc if min(push(g)) >= 0.5]
     lead = load.grasps[0]
-    assert lead.force_closure and resist(lead) == pytest.approx(max(resist(g) for g in eps.grasps if g.force_closure),
-                                                                rel=1e-6)
+    assert lead.force_closure and resist(lead) == pytest.approx(max(resist(g) for g in (opposed or fc)), rel=1e-6)
+    assert (min(push(lead)) >= 0.5) == bool(opposed)
     assert [_pose_key(g) for g in load.grasps[1:]] == [_pose_key(g) for g in eps.grasps if _pose_key(g) != _pose_key(lead)]
     doc = load.to_dict()
     assert doc["parameters"]["rank"] == "load" and all("load_resistance" in g for g in doc["grasps"])

@@ -115,9 +115,9 @@ struct RankedGrasp {
   /// load_resistance() of every contact (quality.hpp): the least pure force at the centre of mass
   /// along the six load directions, per unit total normal force; 0 when not force-closure.
   double load_resistance = 0.0;
-  /// closing_opposition() of every contact (grasp.hpp): how squarely the contacts a closing DOF
-  /// does not move push back against its push, the least over the DOFs; -1 without contacts.
-  double opposition = -1.0;
+  /// closing_push() of every contact (grasp.hpp): how squarely each closing DOF pushes into the
+  /// surface and is pushed back; -1 each without contacts.
+  ClosingPush push;
   /// Force closure and epsilon under perturbations (Ranking::Robust only).
   std::optional<RobustQuality> robust;
 };
@@ -136,7 +136,8 @@ enum class Ranking {
   Enclosure,
   /// Rank 1: of the same pool, the force-closure grasp with the largest load_resistance() from every
   /// contact (then epsilon as the search scored it): the grasp that resists worst-placed gravity
-  /// best. Ranks 2 to top as Enclosure.
+  /// best, taken among those whose fingers close into the surface and are pushed back
+  /// (FinishOptions::min_opposition, min_drive) when there are any. Ranks 2 to top as Enclosure.
   Load,
 };
 
@@ -170,6 +171,11 @@ struct FinishOptions {
   /// asked for.
   RobustOptions robust;
   int robust_pool = 10;
+  /// Ranking::Load: rank 1 is taken among the pool's force-closure grasps whose closing push
+  /// (closing_push() of grasp.hpp) has opposition and drive at least these, when there are any
+  /// (-1: every grasp). Chosen on the held-out benchmark's dev half (docs/physics.md).
+  double min_opposition = 0.5;
+  double min_drive = 0.5;
 };
 
 /// The PipelineOptions::hull_rank under which every candidate finish() can pick (fine-tunes, or

@@ -95,22 +95,28 @@ struct Contacts {
   int occluded_count = 0;     ///< contacts found on occluded faces (thinned the same way; not listed)
 };
 
-/// How squarely each closing DOF's push on the object is pushed back by contacts it does not move,
-/// the least over the closing DOFs (closing_directions()) that move a contact: in [-1, 1].
-///
-/// A DOF's push is the sum of the inward normals (−normals) of the contacts on the links it moves,
-/// each weighted by how far the DOF's closing motion at the contact drives into the surface
-/// (max(0, cosine between motion and inward normal); motion by forward kinematics, finite
-/// differences). Its opposition is the larger of how far its own contacts' pushes cancel (1 − |push|
-/// / Σ weights: 1 for a parallel jaw's two pads, which one DOF moves) and the largest cosine
-/// between the reversed push and the inward normal of a contact it does not move (the palm, the
-/// other fingers): 1 when some contact pushes straight back, 0 when only friction can hold the push (the Barrett spread at π, fingers 1 and 2
-/// pinching across while finger 3 pushes between them), −1 when nothing opposes it (also returned
-/// when no closing DOF moves a contact). In the physics check, grasps whose fingers push the object
-/// out while closing or once the table is gone score low (docs/physics.md). Contacts and wrist
-/// in the target frame; throws std::invalid_argument for a bad DOF vector ("dofs: ...").
-double closing_opposition(const Hand& hand, const Pose& wrist, const Eigen::VectorXd& dofs,
-                          const Contacts& contacts);
+/// How each closing DOF's push on the object is met (closing_push()). Both are the least over
+/// the closing DOFs (closing_directions()) that move a contact, in [-1, 1]; -1 when none does.
+struct ClosingPush {
+  /// How squarely the DOF's push is pushed back. Its push is the sum of the inward normals
+  /// (−normals) of the contacts on the links it moves, each weighted by how far its closing motion
+  /// there drives into the surface (max(0, cosine between motion and inward normal)). Its opposition
+  /// is the larger of how far its own contacts' pushes cancel (1 − |push| / Σ weights: 1 for a
+  /// parallel jaw's two pads, which one DOF moves) and the largest cosine between the reversed push
+  /// and the inward normal of a contact it does not move (the palm, the other fingers): 1 when some
+  /// contact pushes straight back, 0 when only friction can hold the push (the Barrett spread at π,
+  /// fingers 1 and 2 pinching across while finger 3 pushes between them).
+  double opposition = -1.0;
+  /// How squarely the DOF closes into the surface: the largest cosine between a contact's closing
+  /// motion and its inward normal (1: into it; near 0: sliding along it, pushing the object aside).
+  double drive = -1.0;
+};
+
+/// The ClosingPush of a grasp's contacts (target frame) at (wrist, dofs): motion by forward
+/// kinematics (finite differences). In the physics check, grasps whose fingers push the object
+/// out while closing or once the table is gone score low (docs/physics.md). Throws
+/// std::invalid_argument for a bad DOF vector ("dofs: ...").
+ClosingPush closing_push(const Hand& hand, const Pose& wrist, const Eigen::VectorXd& dofs, const Contacts& contacts);
 
 /// The contacts of the hand at (wrist, dofs): the samples of every link's active faces (spacing
 /// CheckOptions::contact_spacing, independent of any constellation) whose signed distance to the
