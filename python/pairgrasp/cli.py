@@ -362,7 +362,8 @@ def _add_target_options(p, threads_help="worker threads (default 0: every core)"
     p.add_argument("--threads", type=_count(0), default=0, help=threads_help)
     p.add_argument("--rank", choices=_core.RANKINGS, default=_core.DEFAULT_RANK,
                    help="order of the grasps: load (default: rank 1 is the force-closure grasp of the ten "
-                   "best by epsilon that resists gravity along its worst axis best, the rest follow by "
+                   "best by epsilon that resists gravity along its worst axis best, among those whose fingers close into "
+                   "the surface and are pushed back, the rest follow by "
                    "epsilon), enclosure (as load, rank 1 the one with the most hand links in contact), "
                    "epsilon (the paper's: force closure, then epsilon) or robust (probability of force "
                    "closure under pose and friction error, then its lower-quartile epsilon)")

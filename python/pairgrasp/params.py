@@ -75,7 +75,9 @@ class PlanParams:
         rank: how the returned grasps are ordered. ``"load"`` (the default): of the
             ``max(top, 10)`` best distinct grasps by epsilon, rank 1 is the force-closure grasp
             whose contacts resist a pure force at the centre of mass best along their worst of
-            +-x, +-y, +-z (:func:`pairgrasp.load_resistance`, then the search's epsilon) and the
+            +-x, +-y, +-z (:func:`pairgrasp.load_resistance`, then the search's epsilon), among
+            those whose fingers close into the surface and are pushed back
+            (:func:`pairgrasp.closing_push`: opposition and drive >= 0.5) when any, and the
             others follow in the epsilon ranking's order; in the physics check (docs/physics.md)
             its rank-1 grasp held more often than the other rankings'. ``"enclosure"``: the same
             pool led by the force-closure grasp with the most hand links in contact.

@@ -63,7 +63,8 @@ where it works: ``rank="robust"`` orders the final grasps by the probability of 
 under pose and friction error, then the lower quartile of epsilon, then as above. The default,
 ``rank="load"``, returns the epsilon ranking's grasps but leads with the force-closure grasp of
 the ten best that resists gravity best along its worst axis (:func:`pairgrasp.load_resistance`:
-the largest pure force at the centre of mass along +-x, +-y, +-z that its contacts can exert);
+the largest pure force at the centre of mass along +-x, +-y, +-z that its contacts can exert),
+among those whose fingers close into the surface and are pushed back (:func:`pairgrasp.closing_push`);
 ``rank="enclosure"`` leads with the one with the most hand links in contact. In the physics check
 (docs/physics.md) the load ranking's rank-1 grasp held more often than any other ranking's.
 

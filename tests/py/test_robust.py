@@ -199,13 +199,18 @@ def test_grasps_file_robust_fields_are_optional_and_checked():
 def test_plans_lead_with_the_grasp_that_resists_gravity_best_by_default(barrett_flask):
     # The physics check's rank-1 grasp held most often under the load ranking (docs/physics.md):
     # rank 1 resists a pure force at the centre of mass best along its worst axis (measured here with
-    # SciPy's hull) of the force-closure grasps, the rest follow by epsilon.
+    # SciPy's hull) of the force-closure grasps whose fingers are opposed (opposition and drive >= 0.5,
+    # measured here too) when any, the rest follow by epsilon.
     planner, result = barrett_flask
     centre, radius = independent.torque_reference(independent.to_trimesh(planner.target))
     resist = [independent.load_resistance(g.contact_points, g.contact_normals, centre, radius) for g in result.grasps]
+    opposed = [min(independent.closing_push(planner.hand, g.wrist_pose, g.dofs, g.contact_points, g.contact_normals,
+                                            g.contact_links, pg.closing_directions(planner.hand, g.dofs))) >= 0.5
+               for g in result.grasps]
     lead, rest = result.grasps[0], result.grasps[1:]
     assert lead.force_closure
-    assert resist[0] >= max(v for v, g in zip(resist, result.grasps) if g.force_closure) * (1 - 1e-6)
+    among = [v for v, g, o in zip(resist, result.grasps, opposed) if g.force_closure and (o or not any(opposed))]
+    assert resist[0] >= max(among) * (1 - 1e-6)
     keys = [(g.force_closure, g.epsilon) for g in rest]
     assert keys == sorted(keys, reverse=True)
     assert all(g.force_closure_probability is None for g in result.grasps)
