@@ -213,6 +213,9 @@ RULES = {
     "drive >= 0.5 first, then load resistance": lambda g: (g["drive"] >= 0.5, g["load_resistance"] or 0.0),
     "opposition and drive >= 0.5 first, then load resistance":
         lambda g: (g["opposition"] >= 0.5 and g["drive"] >= 0.5, g["load_resistance"] or 0.0),
+    "no palm contact first, then load resistance": lambda g: (not g["palm"], g["load_resistance"] or 0.0),
+    "no palm contact, opposition and drive >= 0.5 first, then load resistance":
+        lambda g: (not g["palm"] and g["opposition"] >= 0.5 and g["drive"] >= 0.5, g["load_resistance"] or 0.0),
 }
 
 
