@@ -616,8 +616,10 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     }
     if (robust) rescore(out);
   }
-  if (!load) load_resistances(out);
-  pushes(out);
+  if (!load) {  // the load ranking measured its pool, which the returned grasps come from
+    load_resistances(out);
+    pushes(out);
+  }
   if (timings) {
     timings->robust = robust_seconds;
     timings->fine_tune = seconds_since(t_start) - robust_seconds;
