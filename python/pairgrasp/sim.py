@@ -333,9 +333,14 @@ def trial_perturbations(n: int, seed: int = 0, noise: Optional[TrialNoise] = Non
     return out
 
 
+def _smoothstep(s: float) -> float:
+    """0 at 0, 1 at 1, with zero slope at both ends: the easing of every ramp of the procedure."""
+    return s * s * (3 - 2 * s)
+
+
 def _slerp_dir(a, b, s) -> np.ndarray:
     """Unit vector a fraction s (smoothstep-eased) of the way from a to b on the great circle."""
-    s = s * s * (3 - 2 * s)
+    s = _smoothstep(s)
     ang = math.acos(max(-1.0, min(1.0, float(a @ b))))
     if ang < 1e-9:
         return a.copy()
@@ -355,7 +360,7 @@ def load_profile(params: SimParams, t: float) -> Optional[np.ndarray]:
     seg = params.turn_time + params.hold_time
     if t < ramp:                                     # gravity fades in along -z
         s = t / ramp
-        return _G * (s * s * (3 - 2 * s)) * _DIRECTIONS[0]
+        return _G * _smoothstep(s) * _DIRECTIONS[0]
     t -= ramp
     if t < params.hold_time:
         return _G * _DIRECTIONS[0]
@@ -714,7 +719,7 @@ class Simulator:
                     if t < p.turn_time:
                         s = t / p.turn_time
                         for mid in self._mocap:
-                            d.mocap_pos[mid] = to_world[:3, 3] + recede * p.lift_distance * (s * s * (3 - 2 * s))
+                            d.mocap_pos[mid] = to_world[:3, 3] + recede * p.lift_distance * _smoothstep(s)
                     else:
                         for mid in self._mocap:
                             d.mocap_pos[mid] = [1e3, 1e3, 1e3]
