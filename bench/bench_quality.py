@@ -41,7 +41,7 @@ BARRETT = os.path.join(ROOT, "models", "barrett", "barrett.json")
 def collect(target: str, seed: int, step: float):
     """The contact sets (kwargs of grasp_quality) that one plan of `target` evaluates."""
     pipes = []
-    make = pg_planner._core.CandidatePipeline
+    make = pg_planner._core.GraspSearch
 
     def recording(*args, **kw):
         pipes.append(make(*args, **kw))
@@ -50,13 +50,13 @@ def collect(target: str, seed: int, step: float):
     mesh = os.path.join(ROOT, "models", "targets", f"{target}.stl")
     paint = os.path.join(ROOT, "models", "targets", f"{target}.paint.json")
     planner = pg.Planner(BARRETT, mesh, paint=paint if os.path.exists(paint) else None, seed=seed)
-    pg_planner._core.CandidatePipeline = recording
+    pg_planner._core.GraspSearch = recording
     try:
         t0 = time.perf_counter()
         result = planner.plan(schedule="fast", step=step, progress=None)
         plan_s = time.perf_counter() - t0
     finally:
-        pg_planner._core.CandidatePipeline = make
+        pg_planner._core.GraspSearch = make
     p = result.params
     common = dict(center=np.array(planner.center, float), radius=float(planner.radius), mu=p.mu, edges=p.edges)
     calls = []

@@ -10,6 +10,8 @@
 #include <pairgrasp/types.hpp>
 
 #include <algorithm>
+#include <cstdint>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -94,6 +96,42 @@ inline Pose pose_from(const pyb::handle& obj, const std::string& name) {
 }
 
 /// A per-face mask from a 1-D bool array (None: nothing); std::invalid_argument("<name>: ...").
+/// An option value given as a Python integer / real number; ValueError naming the option otherwise.
+inline int integer(const pyb::handle& v, const std::string& name) {
+  if (pyb::isinstance<pyb::bool_>(v) || !pyb::hasattr(v, "__index__"))
+    throw std::invalid_argument(name + ": expected an integer, got " + std::string(pyb::repr(v)));
+  const pyb::int_ i(pyb::reinterpret_borrow<pyb::object>(v));
+  if (i < pyb::int_(std::numeric_limits<int>::min()) || i > pyb::int_(std::numeric_limits<int>::max()))
+    throw std::invalid_argument(name + ": " + std::string(pyb::repr(v)) + " is out of range");
+  return i.cast<int>();
+}
+
+/// A seed: an integer in [0, 2^64).
+inline std::uint64_t seed_value(const pyb::handle& v, const std::string& name) {
+  if (pyb::isinstance<pyb::bool_>(v) || !pyb::hasattr(v, "__index__"))
+    throw std::invalid_argument(name + ": expected an integer, got " + std::string(pyb::repr(v)));
+  const pyb::int_ i(pyb::reinterpret_borrow<pyb::object>(v));
+  if (i < pyb::int_(0) || i > pyb::int_(std::numeric_limits<std::uint64_t>::max()))
+    throw std::invalid_argument(name + ": expected an integer in [0, 2**64), got " + std::string(pyb::repr(v)));
+  return i.cast<std::uint64_t>();
+}
+
+inline double real(const pyb::handle& v, const std::string& name) {
+  if (pyb::isinstance<pyb::bool_>(v) || !pyb::hasattr(v, "__float__"))
+    throw std::invalid_argument(name + ": expected a number, got " + std::string(pyb::repr(v)));
+  return pyb::float_(pyb::reinterpret_borrow<pyb::object>(v)).cast<double>();
+}
+
+/// (K, D) DOF samples of a hand with `dofs` DOFs; ValueError ("samples: ...") for another shape.
+inline std::vector<Eigen::VectorXd> samples_from(const pyb::handle& obj, long dofs) {
+  const DoubleArray a = as_double_array(obj, "samples");
+  if (a.ndim() != 2 || a.shape(1) != dofs)
+    throw std::invalid_argument("samples: expected a (K, " + std::to_string(dofs) + ") array, got shape " + shape_of(a));
+  std::vector<Eigen::VectorXd> out;
+  for (pyb::ssize_t k = 0; k < a.shape(0); ++k) out.emplace_back(Eigen::Map<const Eigen::VectorXd>(a.data() + dofs * k, dofs));
+  return out;
+}
+
 std::optional<Mask> mask_from(const pyb::handle& obj, const std::string& name);  // bind_query.cpp
 /// Meshes from a list of Mesh (None: none); std::invalid_argument("<name>[i]: ...").
 std::vector<Mesh> meshes_from(const pyb::handle& obj, const std::string& name);  // bind_query.cpp
@@ -121,4 +159,5 @@ void bind_query(pyb::module_& m);      // bind_query.cpp: SurfaceQuery
 void bind_collision(pyb::module_& m);  // bind_collision.cpp: GraspChecker, close, contacts, closing_directions
 void bind_quality(pyb::module_& m);    // bind_quality.cpp: contact wrenches, grasp quality (epsilon)
 void bind_planning(pyb::module_& m);   // bind_planning.cpp: evaluate_grasp, fine_tune, CandidatePipeline, GraspPlanner
+void bind_search(pyb::module_& m);     // bind_search.cpp: GraspSearch, plan_samples
 }  // namespace pairgrasp::py

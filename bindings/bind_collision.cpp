@@ -155,6 +155,20 @@ void bind_collision(pyb::module_& m) {
                " on occluded faces)";
       });
 
+  m.def(
+      "estimate_field_bytes",
+      [](const Mesh& target, const pyb::object& free, double depth_tolerance, double gap, double field_cell) {
+        CheckOptions o;
+        o.depth_tolerance = depth_tolerance;
+        o.contact_gap = gap;
+        o.field_cell = field_cell;
+        return estimate_field_bytes(target, mask_from(free, "free").value_or(Mask()), o);
+      },
+      "target"_a, "free"_a = pyb::none(), "depth_tolerance"_a = CheckOptions().depth_tolerance,
+      "gap"_a = CheckOptions().contact_gap, "field_cell"_a = CheckOptions().field_cell,
+      "Estimated peak bytes of the distance fields a GraspChecker builds for the target and its occluded faces "
+      "(microseconds, before building; the planner refuses a target over its max_field_bytes by it).");
+
   pyb::class_<GraspChecker>(
       m, "GraspChecker",
       "Penetration pruning, closing onto contact and contacts of a hand against a target (and obstacles).\n\n"

@@ -4,9 +4,10 @@
 
 #include <pairgrasp/candidates.hpp>
 #include <pairgrasp/evaluation.hpp>
-#include <pairgrasp/planner.hpp>
+#include <pairgrasp/search.hpp>
 #include <pairgrasp/robust.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -113,39 +114,46 @@ ConstellationChoice choice_from(const std::string& c) {
   throw std::invalid_argument("constellation: expected 'auto', 'per_link' or 'area', got '" + c + "'");
 }
 
-PlannerOptions planner_options(double edge, double d_max, std::size_t max_pairs, const std::string& constellation,
-                               double spacing, int max_area_samples, double depth_tolerance, double gap, double backoff,
-                               int max_poses, int threads) {
+// PlannerOptions from keyword arguments named as its fields (None: unset, derived).
+PlannerOptions planner_options(const pyb::kwargs& kw) {
   PlannerOptions o;
-  o.edge = edge;
-  o.d_max = d_max;
-  o.max_pairs = max_pairs;
-  o.constellation = choice_from(constellation);
-  o.spacing = spacing;
-  o.max_area_samples = max_area_samples;
-  o.depth_tolerance = depth_tolerance;
-  o.gap = gap;
-  o.backoff = backoff;
-  o.max_poses = max_poses;
-  o.threads = threads;
+  auto length = [](const pyb::handle& v, const std::string& k) {
+    return v.is_none() ? std::nullopt : std::optional<double>(real(v, k));
+  };
+  for (const auto& item : kw) {
+    const std::string k = pyb::str(item.first);
+    const pyb::handle v = item.second;
+    if (k == "edge") o.edge = length(v, k);
+    else if (k == "d_max") o.d_max = length(v, k);
+    else if (k == "max_pairs") o.max_pairs = static_cast<std::size_t>(std::max(0, integer(v, k)));
+    else if (k == "constellation") o.constellation = choice_from(pyb::str(v));
+    else if (k == "spacing") o.spacing = length(v, k);
+    else if (k == "max_area_samples") o.max_area_samples = integer(v, k);
+    else if (k == "depth_tolerance") o.depth_tolerance = length(v, k);
+    else if (k == "gap") o.gap = real(v, k);
+    else if (k == "backoff") o.backoff = length(v, k);
+    else if (k == "field_cell") o.field_cell = length(v, k);
+    else if (k == "max_field_bytes") {
+      const double bytes = real(v, k);
+      if (!(bytes >= 1.0 && bytes < 1e18))
+        throw std::invalid_argument("max_field_bytes: expected a number of bytes >= 1, got " + std::string(pyb::repr(v)));
+      o.max_field_bytes = static_cast<std::size_t>(bytes);
+    }
+    else if (k == "threads") o.threads = integer(v, k);
+    else throw std::invalid_argument("unknown planner option '" + k + "'");
+  }
+  validate(o);
   return o;
 }
 
 const char* mode_name(ConstellationMode m) { return m == ConstellationMode::Area ? "area" : "per_link"; }
 
-std::vector<Eigen::VectorXd> samples_from(const pyb::object& obj, long dofs) {
-  const DoubleArray a = as_double_array(obj, "samples");
-  if (a.ndim() != 2 || a.shape(1) != dofs)
-    throw std::invalid_argument("samples: expected a (K, " + std::to_string(dofs) + ") array, got shape " + shape_of(a));
-  std::vector<Eigen::VectorXd> out;
-  for (pyb::ssize_t k = 0; k < a.shape(0); ++k) out.emplace_back(Eigen::Map<const Eigen::VectorXd>(a.data() + dofs * k, dofs));
-  return out;
-}
 
 const char* const kPlannerOptionsDoc =
-    "edge (m; 0: derived), d_max (m; 0: the hand's span + edge), max_pairs, constellation ('auto', 'per_link', "
-    "'area'), spacing (m; 0: derived), max_area_samples, depth_tolerance (m; < 0: edge / 4), gap (m), backoff (m; "
-    "< 0: half the hand's reach), max_poses (aligned poses kept per sample), threads (0: every core).";
+    "Options (keywords, as C++ PlannerOptions; None: derived): edge (m), d_max (m; None: the hand's span + edge), "
+    "max_pairs, constellation ('auto', 'per_link', 'area'), spacing (m), max_area_samples, depth_tolerance (m; None: "
+    "edge / 4), gap (m), field_cell (m; None: edge / 5), max_field_bytes (2 GiB), backoff (m; None: half the "
+    "hand's reach; a GraspSearch may use another), threads (0: every core).";
 
 }  // namespace
 
@@ -501,29 +509,29 @@ void bind_planning(pyb::module_& m) {
       .def_readonly("spacing", &PlannerSetup::spacing, "Area spacing (m; 0 for per-link constellations).")
       .def_readonly("depth_tolerance", &PlannerSetup::depth_tolerance, "m")
       .def_readonly("backoff", &PlannerSetup::backoff, "Largest back-off when settling (m).")
-      .def_readonly("reach", &PlannerSetup::reach, "Largest distance of a constellation sample from the wrist (m).");
+      .def_readonly("reach", &PlannerSetup::reach, "Largest distance of a constellation sample from the wrist (m).")
+      .def_readonly("field_cell", &PlannerSetup::field_cell, "Cell edge of the checker's distance fields (m).");
 
-#define PG_PLANNER_ARGS                                                                                        \
-  "edge"_a = 0.0, "d_max"_a = 0.0, "max_pairs"_a = PlannerOptions().max_pairs, "constellation"_a = "auto",     \
-      "spacing"_a = 0.0, "max_area_samples"_a = PlannerOptions().max_area_samples, "depth_tolerance"_a = -1.0, \
-      "gap"_a = PlannerOptions().gap, "backoff"_a = -1.0, "max_poses"_a = PlannerOptions().max_poses,         \
-      "threads"_a = 0
+  m.def(
+      "check_planner_options", [](const pyb::kwargs& kw) { planner_options(kw); },
+      (std::string("Raises ValueError naming the first bad one of the planner options (C++ PlannerOptions). ") +
+       kPlannerOptionsDoc)
+          .c_str());
+  m.def("hand_span", &hand_span, "hand"_a,
+        "The largest distance between two per-link constellation samples over the hand's DOF range (m).");
   m.def("finest_edge", &finest_edge, "target"_a,
         "The finest unit-facet edge the planner derives for the target (m): 5 mm, or a fifteenth of its smallest "
         "extent when that is less. A derived edge only grows from here, so a quarter of it bounds the derived depth "
         "tolerance from below.");
   m.def(
       "resolve_planner",
-      [](const Hand& hand, const Mesh& target, const pyb::object& free, double edge, double d_max, std::size_t max_pairs,
-         const std::string& constellation, double spacing, int max_area_samples, double depth_tolerance, double gap,
-         double backoff, int max_poses, int threads) {
+      [](const Hand& hand, const Mesh& target, const pyb::object& free, const pyb::kwargs& kw) {
         const Mask mask = mask_from(free, "free").value_or(Mask());
-        const PlannerOptions o = planner_options(edge, d_max, max_pairs, constellation, spacing, max_area_samples,
-                                                 depth_tolerance, gap, backoff, max_poses, threads);
+        const PlannerOptions o = planner_options(kw);
         pyb::gil_scoped_release release;
         return resolve_planner(hand, target, mask, o);
       },
-      "hand"_a, "target"_a, "free"_a = pyb::none(), PG_PLANNER_ARGS,
+      "hand"_a, "target"_a, "free"_a = pyb::none(),
       (std::string("The parameters a GraspPlanner would resolve (before indexing anything). ") + kPlannerOptionsDoc).c_str());
 
   pyb::class_<GraspPlanner>(
@@ -531,24 +539,22 @@ void bind_planning(pyb::module_& m) {
       "Everything built once per hand and target: the resolved parameters, the target's unit facets and pair index, "
       "the aligner and the grasp checker (the C++ planning API; pairgrasp.Planner drives it).")
       .def(pyb::init([](const Hand& hand, const Mesh& target, const pyb::object& free, const pyb::object& obstacles,
-                        double edge, double d_max, std::size_t max_pairs, const std::string& constellation,
-                        double spacing, int max_area_samples, double depth_tolerance, double gap, double backoff,
-                        int max_poses, int threads, const pyb::object& regions, const pyb::object& occluders,
-                        double occluder_distance, const pyb::object& viewpoints, const pyb::object& support) {
+                        const pyb::object& regions, const pyb::object& occluders, double occluder_distance,
+                        const pyb::object& viewpoints, const pyb::object& support, const pyb::kwargs& kw) {
              Scene scene;
              scene.occlusion = occlusion_from(free, regions, occluders, occluder_distance, viewpoints, support);
              scene.obstacles = obstacles_from(obstacles);
-             const PlannerOptions o = planner_options(edge, d_max, max_pairs, constellation, spacing, max_area_samples,
-                                                      depth_tolerance, gap, backoff, max_poses, threads);
+             const PlannerOptions o = planner_options(kw);
              pyb::gil_scoped_release release;
              return std::make_unique<GraspPlanner>(hand, target, scene, o);
            }),
-           "hand"_a, "target"_a, "free"_a = pyb::none(), "obstacles"_a = pyb::list(), PG_PLANNER_ARGS,
+           "hand"_a, "target"_a, "free"_a = pyb::none(), "obstacles"_a = pyb::list(),
            "regions"_a = pyb::none(), "occluders"_a = pyb::none(), "occluder_distance"_a = 0.005,
            "viewpoints"_a = pyb::none(), "support"_a = pyb::none(),
-           "The scene: `free` (per-face paint mask), `regions`, `occluders` (within `occluder_distance` m), "
+           (std::string("The scene: `free` (per-face paint mask), `regions`, `occluders` (within `occluder_distance` m), "
            "`viewpoints` and `support` (SupportPlane) give the free surface (pairgrasp.free_surface at half the "
-           "first unit-facet edge); `obstacles` and the support's box are what the hand must not touch.")
+           "first unit-facet edge); `obstacles` and the support's box are what the hand must not touch. "
+           + std::string(kPlannerOptionsDoc)).c_str()))
       .def_property_readonly("target", &GraspPlanner::target, pyb::return_value_policy::reference_internal,
                              "The target planned on: faces split where the free surface changes.")
       .def_property_readonly("free", [](const GraspPlanner& p) { return mask_to_numpy(p.free()); },
@@ -625,42 +631,6 @@ void bind_planning(pyb::module_& m) {
       },
       "lower"_a, "upper"_a, "step"_a, "Per-DOF sample values (see pairgrasp.dof_grid).");
 
-  m.def(
-      "plan_samples",
-      [](const GraspPlanner& planner, const pyb::object& samples, int poses_per_sample, int chunk, double step, int top,
-         int fine_tune, int fine_tune_iterations, std::uint64_t seed, double mu, int edges, int contacts_per_link,
-         int max_evaluations, int hull_rank, const std::string& rank, int robust_samples) {
-        const std::vector<Eigen::VectorXd> qs = samples_from(samples, static_cast<long>(planner.hand().dofs().size()));
-        PlanOptions o;
-        o.poses_per_sample = poses_per_sample;
-        o.chunk = chunk;
-        o.step = step;
-        o.top = top;
-        o.fine_tune = fine_tune;
-        o.fine_tune_iterations = fine_tune_iterations;
-        o.seed = seed;
-        o.mu = mu;
-        o.edges = edges;
-        o.contacts_per_link = contacts_per_link;
-        o.max_evaluations = max_evaluations;
-        o.hull_rank = hull_rank;
-        o.rank = ranking_from_string(rank);
-        o.robust_samples = robust_samples;
-        PlanReport r;
-        {
-          pyb::gil_scoped_release release;
-          r = plan_samples(planner, qs, o);
-        }
-        return pyb::make_tuple(r.grasps, r.candidates, r.counts, r.timings);
-      },
-      "planner"_a, "samples"_a, "poses_per_sample"_a = PlanOptions().poses_per_sample, "chunk"_a = PlanOptions().chunk,
-      "step"_a = 0.0, "top"_a = PlanOptions().top, "fine_tune"_a = PlanOptions().fine_tune,
-      "fine_tune_iterations"_a = PlanOptions().fine_tune_iterations, "seed"_a = 0, "mu"_a = 0.5, "edges"_a = 8,
-      "contacts_per_link"_a = PlanOptions().contacts_per_link, "max_evaluations"_a = -1, "hull_rank"_a = -1,
-      "rank"_a = to_string(PlanOptions().rank), "robust_samples"_a = PlanOptions().robust_samples,
-      "The C++ planning call: align each sample (K, D), settle, evaluate, rank and fine-tune, `chunk` samples at a "
-      "time. Returns (grasps: list of RankedGrasp, candidates: list of EvaluatedCandidate, counts, timings).");
-#undef PG_PLANNER_ARGS
 }
 
 }  // namespace pairgrasp::py

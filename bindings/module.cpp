@@ -16,4 +16,5 @@ PYBIND11_MODULE(_core, m) {
   pairgrasp::py::bind_collision(m);
   pairgrasp::py::bind_quality(m);
   pairgrasp::py::bind_planning(m);
+  pairgrasp::py::bind_search(m);
 }

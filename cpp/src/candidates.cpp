@@ -1,7 +1,7 @@
 // The candidate pipeline: settle, deduplicate, evaluate per chunk; rank and fine-tune at the end.
 #include <pairgrasp/candidates.hpp>
 
-#include "collision_internal.hpp"
+#include "busy_guard.hpp"
 #include "thread_pool.hpp"
 
 #include <algorithm>
@@ -49,7 +49,6 @@ Ranking ranking_from_string(const std::string& name) {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-using LinkState = GraspChecker::Impl::LinkState;
 
 // Above this many wrenches (after quality.hpp's reduction 1) epsilon comes from the active set of
 // contacts (reduction 2), which gives the same epsilon: in 6-D a hull of 100-200 wrenches has
@@ -71,10 +70,10 @@ void check_length(const char* name, double v, bool positive) {
 // change moved.
 class Settler {
  public:
-  Settler(const GraspChecker::Impl& impl, const PipelineOptions& o, const Eigen::Vector3d& approach,
+  Settler(const GraspChecker& checker, const PipelineOptions& o, const Eigen::Vector3d& approach,
           const std::vector<char>& fixed, const std::vector<std::vector<char>>& moved)
-      : I_(impl), o_(o), approach_(approach), fixed_(fixed), moved_(moved), rest_(fixed.size()),
-        states_(impl.links.size()) {
+      : checker_(checker), hand_(checker.hand()), check_(checker.options()), o_(o), approach_(approach),
+        fixed_(fixed), moved_(moved), rest_(fixed.size()), states_(hand_.links().size()) {
     for (std::size_t l = 0; l < rest_.size(); ++l) rest_[l] = !fixed_[l];
   }
 
@@ -91,12 +90,12 @@ class Settler {
     // largest back-off is dropped before any collision check.
     Candidate c = aligned;
     bool moved = false;
-    if (I_.options.support) {
+    if (check_.support) {
       // Clear by the contact gap: a link touching an obstacle is pruned.
-      const double lift = depth_below(*I_.options.support, c.pose, c.dofs) + I_.options.contact_gap;
+      const double lift = depth_below(*check_.support, c.pose, c.dofs) + check_.contact_gap;
       if (lift > o_.backoff) return;
       if (lift > 0.0) {
-        c.pose.translation() += lift * I_.options.support->normal.normalized();
+        c.pose.translation() += lift * check_.support->normal.normalized();
         out.start_pose = c.pose;
         moved = true;
       }
@@ -121,14 +120,14 @@ class Settler {
 
  private:
   void measure(const Pose& wrist, const Eigen::VectorXd& q, const std::vector<char>& which) {
-    const std::vector<Pose> poses = I_.hand.link_poses(q, true);
+    const std::vector<Pose> poses = hand_.link_poses(q, true);
     for (std::size_t l = 0; l < states_.size(); ++l)
-      if (which[l]) states_[l] = I_.link_state(static_cast<int>(l), wrist * poses[l]);
+      if (which[l]) states_[l] = checker_.link_status(static_cast<int>(l), wrist * poses[l]);
     ++checks;
   }
   bool any_bad(const std::vector<char>& which) const {
     for (std::size_t l = 0; l < states_.size(); ++l)
-      if (which[l] && states_[l].bad) return true;
+      if (which[l] && states_[l].pruned) return true;
     return false;
   }
   double deepest(const std::vector<char>& which) const {
@@ -146,10 +145,10 @@ class Settler {
   // How far (m) the hand's lowest link vertex at `wrist`, `q` lies below the plane (<= 0: above it).
   double depth_below(const SupportPlane& plane, const Pose& wrist, const Eigen::VectorXd& q) const {
     const Eigen::Vector3d n = plane.normal.normalized();
-    const std::vector<Pose> poses = I_.hand.link_poses(q, true);
+    const std::vector<Pose> poses = hand_.link_poses(q, true);
     double lowest = std::numeric_limits<double>::infinity();
-    for (std::size_t l = 0; l < I_.hand.links().size(); ++l) {
-      const Mesh& m = I_.hand.links()[l].mesh;
+    for (std::size_t l = 0; l < hand_.links().size(); ++l) {
+      const Mesh& m = hand_.links()[l].mesh;
       const Pose T = wrist * poses[l];
       // Heights of the vertices: n . (R v + t - p) = (R^T n) . v + n . (t - p).
       const Eigen::Vector3d a = T.linear().transpose() * n;
@@ -165,7 +164,7 @@ class Settler {
   // at most the distance it moves, so a palm pruned at d with depth D stays pruned up to
   // d + D - tolerance: the search gives up at once when that reaches the largest back-off.
   bool back_off(const Candidate& c, double depth0, EvaluatedCandidate& out) {
-    const double h = o_.edge, most = o_.backoff, tol = I_.options.depth_tolerance;
+    const double h = o_.edge, most = o_.backoff, tol = check_.depth_tolerance;
     double lo = 0.0, d = std::min(std::max(depth0, h / 2.0) + h / 4.0, most);
     std::optional<double> hi;
     for (;;) {
@@ -200,8 +199,8 @@ class Settler {
   // closing DOF can open.
   bool bad_dofs(const Candidate& c, std::vector<char>& bad_dof, std::vector<char>& moving, Eigen::VectorXd& open) const {
     const Eigen::Index D = c.dofs.size();
-    const Eigen::VectorXi dirs = closing_directions(I_.hand, c.dofs);
-    const Eigen::VectorXd lower = I_.hand.dof_lower(), upper = I_.hand.dof_upper();
+    const Eigen::VectorXi dirs = closing_directions(hand_, c.dofs);
+    const Eigen::VectorXd lower = hand_.dof_lower(), upper = hand_.dof_upper();
     bad_dof.assign(D, 0);
     moving.assign(states_.size(), 0);
     open = c.dofs;
@@ -209,7 +208,7 @@ class Settler {
     for (Eigen::Index d = 0; d < D; ++d) {
       const double limit = dirs[d] > 0 ? lower[d] : (dirs[d] < 0 ? upper[d] : c.dofs[d]);
       bool bad = false;
-      for (std::size_t l = 0; l < states_.size(); ++l) bad = bad || (moved_[d][l] && states_[l].bad);
+      for (std::size_t l = 0; l < states_.size(); ++l) bad = bad || (moved_[d][l] && states_[l].pruned);
       if (!bad || limit == c.dofs[d]) continue;
       bad_dof[d] = 1;
       open[d] = limit;
@@ -240,7 +239,7 @@ class Settler {
     if (!bad_dofs(c, bad_dof, moving, hi) || any_bad(fixed_)) return;
     measure(out.start_pose, hi, moving);
     if (any_bad(std::vector<char>(states_.size(), 1))) return;  // even fully open, something is bad
-    const Eigen::VectorXd steps = I_.hand.dof_step();  // the hand's resolution, whatever the schedule's step
+    const Eigen::VectorXd steps = hand_.dof_step();  // the hand's resolution, whatever the schedule's step
     for (;;) {
       Eigen::VectorXd mid = hi;
       for (Eigen::Index d = 0; d < D; ++d)
@@ -250,7 +249,7 @@ class Settler {
       for (Eigen::Index d = 0; d < D; ++d) {
         if (!bad_dof[d]) continue;
         bool bad = false;
-        for (std::size_t l = 0; l < states_.size(); ++l) bad = bad || (moved_[d][l] && states_[l].bad);
+        for (std::size_t l = 0; l < states_.size(); ++l) bad = bad || (moved_[d][l] && states_[l].pruned);
         (bad ? lo[d] : hi[d]) = mid[d];
         done = done && std::abs(hi[d] - lo[d]) <= std::max(steps[d], 1e-9) / 4.0;
       }
@@ -260,13 +259,15 @@ class Settler {
     out.settled = Settled::Adjusted;
   }
 
-  const GraspChecker::Impl& I_;
+  const GraspChecker& checker_;
+  const Hand& hand_;
+  const CheckOptions& check_;
   const PipelineOptions& o_;
   const Eigen::Vector3d& approach_;
   const std::vector<char>& fixed_;
   const std::vector<std::vector<char>>& moved_;
   std::vector<char> rest_;  // the links some closing DOF moves (not fixed_)
-  std::vector<LinkState> states_;
+  std::vector<LinkStatus> states_;
 };
 
 // Settled candidates that land on the same pose (within h, ~3 degrees, half a DOF step) share a key.
@@ -285,6 +286,10 @@ auto rank_key(const GraspEvaluation& e, const Candidate& c) {
 }
 
 }  // namespace
+
+bool ranks_before(const EvaluatedCandidate& a, const EvaluatedCandidate& b) {
+  return rank_key(a.evaluation, a.candidate) > rank_key(b.evaluation, b.candidate);
+}
 
 CandidatePipeline::CandidatePipeline(const GraspChecker& checker, const PipelineOptions& options)
     : checker_(checker), options_(options), created_(Clock::now()) {
@@ -315,22 +320,22 @@ CandidatePipeline::CandidatePipeline(const GraspChecker& checker, const Pipeline
   approach_ = hand.approach();
 
   // Links each DOF moves, and the links no closing DOF moves (at mid-range).
-  const GraspChecker::Impl& I = checker.impl();
-  const std::size_t L = I.links.size();
+  const std::vector<std::vector<int>>& dof_links = checker.dof_links();
+  const std::size_t L = hand.links().size();
   const Eigen::VectorXd mid = (hand.dof_lower() + hand.dof_upper()) / 2.0;
   const Eigen::VectorXi dirs = closing_directions(hand, mid);
-  moved_.assign(I.dof_links.size(), std::vector<char>(L, 0));
+  moved_.assign(dof_links.size(), std::vector<char>(L, 0));
   fixed_.assign(L, 1);
-  for (std::size_t d = 0; d < I.dof_links.size(); ++d)
-    for (int l : I.dof_links[d]) {
+  for (std::size_t d = 0; d < dof_links.size(); ++d)
+    for (int l : dof_links[d]) {
       moved_[d][l] = 1;
       if (dirs[static_cast<Eigen::Index>(d)] != 0) fixed_[l] = 0;
     }
 }
 
 ChunkReport CandidatePipeline::process(const std::vector<Candidate>& candidates) {
+  const detail::BusyGuard busy(busy_, "CandidatePipeline");
   ChunkReport report;
-  const GraspChecker::Impl& I = checker_.impl();
   for (std::size_t k = 0; k < candidates.size(); ++k) {
     const std::string where = "candidates[" + std::to_string(k) + "]";
     try {
@@ -345,7 +350,7 @@ ChunkReport CandidatePipeline::process(const std::vector<Candidate>& candidates)
   std::vector<EvaluatedCandidate> settled(candidates.size());
   std::vector<int> checks(candidates.size(), 0);
   detail::parallel_for(candidates.size(), options_.threads, [&](std::size_t k) {
-    Settler s(I, options_, approach_, fixed_, moved_);
+    Settler s(checker_, options_, approach_, fixed_, moved_);
     settled[k].candidate = candidates[k];
     s.run(candidates[k], settled[k]);
     checks[k] = s.checks;
@@ -437,6 +442,7 @@ GraspQuality CandidatePipeline::score_reduced(const Contacts& k, double threshol
 }
 
 std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options, FinishTimings* timings) const {
+  const detail::BusyGuard busy(busy_, "CandidatePipeline");
   const auto t_start = Clock::now();
   if (options.robust_pool < 1)
     throw std::invalid_argument("robust_pool: expected an integer >= 1, got " + std::to_string(options.robust_pool));

@@ -371,14 +371,14 @@ GraspChecker::Impl::LinkState GraspChecker::Impl::link_state(int l, const Pose& 
     out.depth = std::max(out.depth, pc.depth);
     out.penetrating = out.penetrating || obstacle || pc.depth > options.depth_tolerance;
   }
-  out.bad = out.penetrating;
-  if (!out.bad) out.bad = options.use_distance_field ? field_touches_occluded(l, pose) : touches_occluded(l, pose);
+  out.pruned = out.penetrating;
+  if (!out.pruned) out.pruned = options.use_distance_field ? field_touches_occluded(l, pose) : touches_occluded(l, pose);
   return out;
 }
 
 bool GraspChecker::Impl::pruned(const Pose& wrist, const std::vector<Pose>& link_poses) const {
   for (std::size_t l = 0; l < links.size(); ++l)
-    if (link_state(static_cast<int>(l), wrist * link_poses[l]).bad) return true;
+    if (link_state(static_cast<int>(l), wrist * link_poses[l]).pruned) return true;
   return false;
 }
 
@@ -387,6 +387,25 @@ bool GraspChecker::Impl::penetrating(const Pose& wrist, const std::vector<Pose>&
     if (link_state(static_cast<int>(l), wrist * link_poses[l]).penetrating) return true;
   return false;
 }
+
+LinkStatus GraspChecker::link_status(int link, const Pose& pose) const {
+  if (link < 0 || static_cast<std::size_t>(link) >= impl_->links.size())
+    throw std::invalid_argument("link: expected an index in [0, " + std::to_string(impl_->links.size()) + "), got " +
+                                std::to_string(link));
+  return impl_->link_state(link, pose);
+}
+
+bool GraspChecker::pruned(const Pose& wrist, const std::vector<Pose>& link_poses) const {
+  detail::check_size("link_poses", static_cast<long>(impl_->links.size()), static_cast<long>(link_poses.size()));
+  return impl_->pruned(wrist, link_poses);
+}
+
+bool GraspChecker::penetrating(const Pose& wrist, const std::vector<Pose>& link_poses) const {
+  detail::check_size("link_poses", static_cast<long>(impl_->links.size()), static_cast<long>(link_poses.size()));
+  return impl_->penetrating(wrist, link_poses);
+}
+
+const std::vector<std::vector<int>>& GraspChecker::dof_links() const { return impl_->dof_links; }
 
 std::vector<Pose> GraspChecker::Impl::target_frame_poses(const Pose& wrist, const Eigen::VectorXd& dofs) const {
   check_rigid(wrist, "wrist");

@@ -111,6 +111,27 @@ SphereTree make_sphere_tree(const Mesh& mesh, const std::vector<int>& faces, dou
 
 }  // namespace geometry_detail
 
+std::size_t estimate_field_bytes(const Mesh& target, const Mask& free, const CheckOptions& options) {
+  if (!options.use_distance_field) return 0;
+  const double cell = options.field_cell;
+  DistanceFieldOptions fo;
+  fo.cell = cell;
+  fo.band = std::max(options.depth_tolerance, options.contact_gap) + 0.25 * cell;
+  std::size_t bytes = DistanceField::estimate_bytes(target, fo);
+  if (free.size() == static_cast<std::size_t>(target.faces.rows())) {
+    Mesh occ;
+    occ.vertices = target.vertices;
+    std::vector<Eigen::Index> rows;
+    for (Eigen::Index f = 0; f < target.faces.rows(); ++f)
+      if (!free[static_cast<std::size_t>(f)]) rows.push_back(f);
+    occ.faces.resize(static_cast<Eigen::Index>(rows.size()), 3);
+    for (std::size_t i = 0; i < rows.size(); ++i) occ.faces.row(static_cast<Eigen::Index>(i)) = target.faces.row(rows[i]);
+    fo.band = options.contact_gap + 0.25 * cell;
+    bytes += DistanceField::estimate_bytes(occ, fo);
+  }
+  return bytes;
+}
+
 void GraspChecker::Impl::build_fields() {
   const double cell = options.field_cell;
   const double band = std::max(options.depth_tolerance, options.contact_gap) + 0.25 * cell;

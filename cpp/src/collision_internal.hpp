@@ -159,6 +159,7 @@ struct PairCheck {
 }  // namespace geometry_detail
 
 struct GraspChecker::Impl {
+  using LinkState = LinkStatus;
   Hand hand;
   Mesh target;
   Mask free;
@@ -211,16 +212,8 @@ struct GraspChecker::Impl {
   void build_fields();
   void build_link_field(geometry_detail::LinkModel& link, double cell, double band);
   double field_seconds = 0.0;
-  /// What one link at `pose` (target frame) does, without strings: `bad` when it penetrates the
-  /// target beyond the tolerance, intersects or lies inside an obstacle, or touches occluded faces
-  /// (exactly the links that make check() prune); `depth` its deepest penetration into anything,
-  /// searched as check() with exact_depth false (a lower bound beyond the tolerance; within it only
-  /// an estimate, see field_pair()'s `intersection`).
-  struct LinkState {
-    bool bad = false;
-    bool penetrating = false;  ///< beyond the depth tolerance in the target, or in an obstacle
-    double depth = 0.0;
-  };
+  /// What one link at `pose` (target frame) does, without strings (GraspChecker::link_status();
+  /// `depth` within the tolerance is only an estimate, see field_pair()'s `intersection`).
   LinkState link_state(int l, const Pose& pose) const;
   /// True when the target's distance field proves that link l's active faces at `pose` (target
   /// frame) come within `gap` of the target (a point of them whose field interval reaches no
@@ -246,5 +239,13 @@ struct GraspChecker::Impl {
   /// where the field shows the surfaces crossing. Without the fields: link_distance().
   double link_clearance(int l, const Pose& pose, bool active, double above, bool* exact = nullptr) const;
 };
+
+namespace detail {
+/// The library's access to a GraspChecker's state (the closing and contact functions of grasp.hpp).
+struct CheckerAccess {
+  using Impl = GraspChecker::Impl;
+  static const Impl& impl(const GraspChecker& checker) { return *checker.impl_; }
+};
+}  // namespace detail
 
 }  // namespace pairgrasp

@@ -4,6 +4,7 @@
 #include "surface_query_internal.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -115,6 +116,34 @@ DistanceField::DistanceField(const SurfaceQuery& query, const DistanceFieldOptio
           brick_nodes_[at++] = values[static_cast<std::size_t>(it - ids.begin())];
         }
   build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+std::size_t DistanceField::estimate_bytes(const Mesh& mesh, const DistanceFieldOptions& options) {
+  if (!std::isfinite(options.cell) || !(options.cell > 0.0))
+    throw std::invalid_argument("cell: expected a finite length > 0 (m), got " + std::to_string(options.cell));
+  if (!std::isfinite(options.band) || options.band < 0.0)
+    throw std::invalid_argument("band: expected a finite length >= 0 (m), got " + std::to_string(options.band));
+  Eigen::AlignedBox3d box;
+  double area = 0.0;
+  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) {
+    const Eigen::Vector3d a = mesh.vertices.row(mesh.faces(f, 0)).transpose(),
+                          b = mesh.vertices.row(mesh.faces(f, 1)).transpose(),
+                          c = mesh.vertices.row(mesh.faces(f, 2)).transpose();
+    box.extend(a), box.extend(b), box.extend(c);
+    area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  if (box.isEmpty()) return 0;
+  Eigen::AlignedBox3d region = options.region.isEmpty() ? box : options.region;
+  const double brick = kCells * options.cell;
+  double total = 1.0;
+  for (int a = 0; a < 3; ++a) total *= std::max(1.0, std::ceil((region.sizes()[a] + 2.0 * (options.band + brick)) / brick));
+  // A flat shell: the bricks whose centre lies within band + half-diagonal of the surface.
+  const double layers = 2.0 * (options.band + 0.5 * std::sqrt(3.0) * brick) / brick;
+  const double stored = std::min(total, area / (brick * brick) * layers);
+  const double per_brick = sizeof(std::int32_t) + sizeof(double) + 3 * sizeof(float);
+  const double per_stored = kNodes * (sizeof(float) + sizeof(std::int64_t) + sizeof(float));
+  const double bytes = total * per_brick + stored * per_stored;
+  return bytes >= 1e19 ? std::numeric_limits<std::size_t>::max() : static_cast<std::size_t>(bytes);
 }
 
 double DistanceField::max_error() const { return 0.5 * std::sqrt(3.0) * h_ + slack_; }

@@ -1,7 +1,6 @@
 // Scoring a grasp (close, check, contacts, epsilon) and fine-tuning it by local random search.
 #include <pairgrasp/evaluation.hpp>
 
-#include "collision_internal.hpp"
 #include "random_internal.hpp"
 #include "thread_pool.hpp"
 
@@ -206,7 +205,7 @@ FineTuneResult fine_tune_from(const GraspChecker& checker, const Pose& wrist, co
   // never moves), so it is not closed.
   std::vector<GraspEvaluation> trials(n);
   detail::parallel_for(static_cast<std::size_t>(n), options.threads, [&](std::size_t k) {
-    if (checker.impl().penetrating(poses[k], hand.link_poses(qs[k]))) {
+    if (checker.penetrating(poses[k], hand.link_poses(qs[k]))) {
       trials[k].wrist = poses[k];
       trials[k].start_dofs = trials[k].dofs = qs[k];
       trials[k].pruned = true;

@@ -91,7 +91,7 @@ std::vector<double> link_speeds(const Hand& hand, const std::vector<int>& links,
 
 CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const Eigen::VectorXd& dofs,
                           const CloseOptions& options) {
-  const GraspChecker::Impl& I = checker.impl();
+  const detail::CheckerAccess::Impl& I = detail::CheckerAccess::impl(checker);
   const Hand& hand = I.hand;
   check_rigid(wrist, "wrist");
   const Eigen::Index D = static_cast<Eigen::Index>(hand.dofs().size());

@@ -26,7 +26,7 @@ struct Candidate {
 }  // namespace
 
 Contacts find_contacts(const GraspChecker& checker, const Pose& wrist, const Eigen::VectorXd& dofs) {
-  const GraspChecker::Impl& I = checker.impl();
+  const detail::CheckerAccess::Impl& I = detail::CheckerAccess::impl(checker);
   const std::vector<Pose> poses = I.target_frame_poses(wrist, dofs);  // validates both
   const double gap = I.options.contact_gap;
   const double below = std::max(I.options.depth_tolerance, gap);  // deepest accepted contact

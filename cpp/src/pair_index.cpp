@@ -271,6 +271,10 @@ struct PairIndex::Impl {
   int depth = 0;
 
   void build_tree(std::vector<Record>& rec, int threads);
+  // Walks the tree for the box |f - center| <= tolerance: whole(b, e) for a subtree wholly inside,
+  // one(k) for each single stored pair inside, in increasing index order.
+  template <class Whole, class One>
+  void walk(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance, Whole whole, One one) const;
 };
 
 void PairIndex::Impl::build_tree(std::vector<Record>& rec, int threads) {
@@ -472,11 +476,10 @@ FloatRange float_range(double c, double t) {
 }
 }  // namespace
 
-// Walks the tree for the box |f - center| <= tolerance: whole(b, e) for a subtree wholly inside,
-// one(k) for each single stored pair inside, in increasing index order.
 template <class Whole, class One>
-void walk(const PairIndex::Impl& s, const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance, Whole whole,
-          One one) {
+void PairIndex::Impl::walk(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance, Whole whole,
+                           One one) const {
+  const Impl& s = *this;
   const std::size_t m = std::size_t(s.pairs.rows());
   if (m == 0) return;
   FloatRange q[3];
@@ -527,8 +530,8 @@ void walk(const PairIndex::Impl& s, const Eigen::Vector3d& center, const Eigen::
 void PairIndex::query(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance,
                       std::vector<std::uint32_t>& out) const {
   check_box(center, tolerance);
-  walk(
-      *impl_, center, tolerance,
+  impl_->walk(
+      center, tolerance,
       [&](std::uint32_t b, std::uint32_t e) {
         for (std::uint32_t k = b; k < e; ++k) out.push_back(k);
       },
@@ -538,8 +541,8 @@ void PairIndex::query(const Eigen::Vector3d& center, const Eigen::Vector3d& tole
 std::size_t PairIndex::count(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance) const {
   check_box(center, tolerance);
   std::size_t n = 0;
-  walk(
-      *impl_, center, tolerance, [&](std::uint32_t b, std::uint32_t e) { n += e - b; },
+  impl_->walk(
+      center, tolerance, [&](std::uint32_t b, std::uint32_t e) { n += e - b; },
       [&](std::uint32_t) { ++n; });
   return n;
 }

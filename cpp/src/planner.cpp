@@ -1,6 +1,7 @@
 // GraspPlanner (parameters, index, aligner, checker) and plan_samples (align -> pipeline -> grasps).
 #include <pairgrasp/planner.hpp>
 
+#include <pairgrasp/error.hpp>
 #include <pairgrasp/features.hpp>
 
 #include "thread_pool.hpp"
@@ -22,10 +23,10 @@ using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-void check_value(const char* name, double v, bool zero_ok) {
-  if (!std::isfinite(v) || v < 0.0 || (!zero_ok && v == 0.0))
-    throw std::invalid_argument(std::string(name) + ": expected a finite value " + (zero_ok ? ">= 0" : "> 0") +
-                                ", got " + std::to_string(v));
+void check_value(const char* name, const std::optional<double>& v, bool zero_ok) {
+  if (v && (!std::isfinite(*v) || *v < 0.0 || (!zero_ok && *v == 0.0)))
+    throw std::invalid_argument(std::string(name) + ": expected a finite length " + (zero_ok ? ">= 0" : "> 0") +
+                                " (m), got " + std::to_string(*v));
 }
 
 // Every combination of one value per axis, the last axis varying fastest.
@@ -81,7 +82,29 @@ ConstellationMode choose_mode(const Hand& hand, ConstellationChoice choice) {
   return ConstellationMode::Area;
 }
 
+// Refuses a target whose checker fields would take more than `budget` bytes (an estimate, before
+// anything is built): one line naming the budget and the options that change it.
+void check_field_estimate(const Mesh& target, const Mask& free, const CheckOptions& co, std::size_t budget) {
+  const std::size_t bytes = estimate_field_bytes(target, free, co);
+  if (bytes <= budget) return;
+  char buf[640];
+  std::snprintf(buf, sizeof buf,
+                "%s: the grasp checker's distance fields at a cell of %.3g mm would take about %.2g GB, over the "
+                "budget of %.2g GB (max_field_memory in GB, CLI --max-field-memory; C++ max_field_bytes); a coarser "
+                "field_cell (--field-cell) or unit-facet edge (--edge) fits, or a larger budget",
+                target.source.empty() ? "target" : target.source.c_str(), co.field_cell * 1e3,
+                static_cast<double>(bytes) / 1e9, static_cast<double>(budget) / 1e9);
+  throw BudgetError(buf);
+}
+
 }  // namespace
+
+double hand_span(const Hand& hand) {
+  double span = 0.0;
+  for (const Eigen::VectorXd& q : corner_samples(hand.dof_lower(), hand.dof_upper()))
+    span = std::max(span, largest_span(hand.constellation(q, ConstellationMode::PerLink).points));
+  return span;
+}
 
 double suggest_target_scale(const Mesh& target, double hand_span) {
   if (!target.vertices.rows() || !(hand_span > 0.0)) return 1.0;
@@ -150,24 +173,30 @@ double finest_edge(const Mesh& target) {
   return extent.minCoeff() > 0.0 ? std::min(0.005, extent.minCoeff() / 15.0) : 0.005;
 }
 
-PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& free, const PlannerOptions& o) {
-  check_value("edge", o.edge, true);
-  check_value("d_max", o.d_max, true);
-  check_value("spacing", o.spacing, true);
+void validate(const PlannerOptions& o) {
+  check_value("edge", o.edge, false);
+  check_value("d_max", o.d_max, false);
+  check_value("spacing", o.spacing, false);
+  check_value("depth_tolerance", o.depth_tolerance, true);
   check_value("gap", o.gap, true);
-  if (!std::isfinite(o.depth_tolerance)) throw std::invalid_argument("depth_tolerance: not finite");
-  if (!std::isfinite(o.backoff)) throw std::invalid_argument("backoff: not finite");
-  if (o.max_pairs < 1) throw std::invalid_argument("max_pairs: expected an integer >= 1");
-  if (o.max_area_samples < 3) throw std::invalid_argument("max_area_samples: expected an integer >= 3");
-  if (o.max_poses < 1) throw std::invalid_argument("max_poses: expected an integer >= 1");
-  if (o.threads < 0) throw std::invalid_argument("threads: expected an integer >= 0");
+  check_value("backoff", o.backoff, true);
+  check_value("field_cell", o.field_cell, false);
+  if (o.max_pairs < 1) throw std::invalid_argument("max_pairs: expected an integer >= 1, got 0");
+  if (o.max_field_bytes < 1) throw std::invalid_argument("max_field_bytes: expected an integer >= 1, got 0");
+  if (o.max_area_samples < 3)
+    throw std::invalid_argument("max_area_samples: expected an integer >= 3, got " + std::to_string(o.max_area_samples));
+  if (o.threads < 0) throw std::invalid_argument("threads: expected an integer >= 0, got " + std::to_string(o.threads));
+}
+
+PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& free, const PlannerOptions& o) {
+  validate(o);
   PlannerSetup s;
   s.mode = choose_mode(hand, o.constellation);
   const Eigen::VectorXd lo = hand.dof_lower(), hi = hand.dof_upper(), mid = (lo + hi) / 2.0;
-  double edge = o.edge > 0.0 ? o.edge : finest_edge(target);
+  double edge = o.edge ? *o.edge : finest_edge(target);
   const std::vector<Eigen::VectorXd> corners = corner_samples(lo, hi);
-  if (o.d_max > 0.0) {
-    s.d_max = o.d_max;
+  if (o.d_max) {
+    s.d_max = *o.d_max;
   } else {
     double span = 0.0;
     for (const Eigen::VectorXd& q : corners) {
@@ -181,11 +210,11 @@ PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& f
     s.d_max = span + edge;
   }
   check_target_scale(target, s.d_max);
-  if (o.edge <= 0.0) edge = suggest_edge(target, s.d_max, o.max_pairs, free, edge);
+  if (!o.edge) edge = suggest_edge(target, s.d_max, o.max_pairs, free, edge);
   s.edge = edge;
   if (s.mode == ConstellationMode::Area) {
-    if (o.spacing > 0.0) {
-      s.spacing = o.spacing;
+    if (o.spacing) {
+      s.spacing = *o.spacing;
     } else {
       double sp = s.edge;
       for (int k = 0; k < 40; ++k) {
@@ -199,8 +228,9 @@ PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& f
     const Points p = hand.constellation(q, ConstellationMode::PerLink).points;
     for (Eigen::Index i = 0; i < p.rows(); ++i) s.reach = std::max(s.reach, p.row(i).norm());
   }
-  s.depth_tolerance = o.depth_tolerance >= 0.0 ? o.depth_tolerance : s.edge / 4.0;
-  s.backoff = o.backoff >= 0.0 ? o.backoff : s.reach / 2.0;
+  s.depth_tolerance = o.depth_tolerance ? *o.depth_tolerance : s.edge / 4.0;
+  s.backoff = o.backoff ? *o.backoff : s.reach / 2.0;
+  s.field_cell = o.field_cell ? *o.field_cell : s.edge / 5.0;
   return s;
 }
 
@@ -235,10 +265,10 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& target, const Mask& fre
 
 GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& scene, const PlannerOptions& options) {
   const auto t0 = Clock::now();
-  if (!(options.edge >= 0.0) || !std::isfinite(options.edge)) resolve_planner(hand, given, Mask(), options);  // "edge: ..."
+  validate(options);
   // The free surface at half the finest edge: the budget only makes the edge coarser, never finer.
   FreeSurface surface = pairgrasp::free_surface(
-      given, scene.occlusion, 0.5 * (options.edge > 0.0 ? options.edge : finest_edge(given)), options.threads);
+      given, scene.occlusion, 0.5 * (options.edge ? *options.edge : finest_edge(given)), options.threads);
   const Mesh& target = surface.mesh;
   const Mask& free = surface.free;
   const PlannerSetup setup = resolve_planner(hand, target, free, options);
@@ -253,6 +283,7 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& sce
   CheckOptions co;
   co.depth_tolerance = setup.depth_tolerance;
   co.contact_gap = options.gap;
+  co.field_cell = setup.field_cell;
   co.threads = options.threads;
   // Settling lifts the hand out of the support: the plane given, else the top of an obstacle the
   // target stands on (a table given as a mesh).
@@ -262,6 +293,7 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& sce
   // An edge far over the pair budget is refused before anything is built: the checker's fields are
   // sized by the same edge (its depth tolerance), and at a tiny edge they alone take minutes.
   check_pair_estimate(target, setup.edge, free, io);
+  check_field_estimate(target, free, co, options.max_field_bytes);
   // The pair index and the checker's fields are built at once; an error of the index is reported
   // first, whichever finished first.
   std::optional<TargetIndex> index;
@@ -282,7 +314,6 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& sce
     if (e) std::rethrow_exception(e);
   auto s = std::make_shared<State>(hand, std::move(surface), std::move(obstacles), options, setup, std::move(*index));
   AlignerOptions ao;
-  ao.max_poses = options.max_poses;
   ao.threads = options.threads;
   s->aligner = std::make_unique<Aligner>(std::make_shared<const PairIndex>(s->index.index), ao);
   s->checker = std::move(checker);
@@ -319,11 +350,11 @@ Constellation GraspPlanner::constellation(const Eigen::VectorXd& dofs) const {
                                            : state_->hand.constellation(dofs, ConstellationMode::PerLink);
 }
 
-std::vector<AlignResult> GraspPlanner::align(const std::vector<Eigen::VectorXd>& samples) const {
+std::vector<AlignResult> GraspPlanner::align(const std::vector<Eigen::VectorXd>& samples, int max_poses) const {
   std::vector<Constellation> cons;
   cons.reserve(samples.size());
   for (const Eigen::VectorXd& q : samples) cons.push_back(constellation(q));
-  return state_->aligner->align_many(cons);
+  return state_->aligner->align_many(cons, max_poses);
 }
 
 std::vector<double> GraspPlanner::match_fractions(const std::vector<Eigen::VectorXd>& samples) const {
@@ -346,91 +377,6 @@ std::vector<double> GraspPlanner::match_fractions(const std::vector<Eigen::Vecto
     out[k] = static_cast<double>(matched) / static_cast<double>(n * (n - 1) / 2);
   });
   return out;
-}
-
-PlanReport plan_samples(const GraspPlanner& planner, const std::vector<Eigen::VectorXd>& samples,
-                        const PlanOptions& o) {
-  if (o.poses_per_sample < 1 || o.poses_per_sample > planner.options().max_poses)
-    throw std::invalid_argument("poses_per_sample: expected an integer in [1, " +
-                                std::to_string(planner.options().max_poses) + "], got " +
-                                std::to_string(o.poses_per_sample));
-  if (o.chunk < 1) throw std::invalid_argument("chunk: expected an integer >= 1, got " + std::to_string(o.chunk));
-  check_value("step", o.step, true);
-  for (std::size_t k = 0; k < samples.size(); ++k) {
-    try {
-      planner.hand().link_poses(samples[k]);
-    } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument("samples[" + std::to_string(k) + "]: " + e.what());
-    }
-  }
-  PlanReport report;
-  for (const char* k : {"samples", "aligned_poses", "settled", "settled_aligned", "evaluated", "force_closure"})
-    report.counts[k] = 0;
-  for (const char* k : {"align", "settle", "evaluate", "fine_tune", "robust"}) report.timings[k] = 0.0;
-  const PlannerSetup& setup = planner.setup();
-  PipelineOptions po;
-  po.edge = setup.edge;
-  po.backoff = setup.backoff;
-  po.steps = planner.steps(o.step);
-  po.evaluate.quality.contact.mu = o.mu;
-  po.evaluate.quality.contact.edges = o.edges;
-  po.evaluate.reference = planner.reference();
-  po.evaluate.contacts_per_link = o.contacts_per_link;
-  po.max_evaluations = o.max_evaluations;
-  FinishOptions fo;
-  fo.top = o.top;
-  fo.fine_tune = o.fine_tune;
-  fo.fine_tune_iterations = o.fine_tune_iterations;
-  fo.seed = o.seed;
-  fo.rank = o.rank;
-  fo.robust.samples = o.robust_samples;
-  po.hull_rank = o.hull_rank >= 0 ? o.hull_rank : hull_rank_for(fo);
-  po.threads = planner.options().threads;
-  CandidatePipeline pipe(planner.checker(), po);
-
-  // A chunk at a time, aligned 64 samples per call, as the Python Planner does.
-  constexpr std::size_t kAlignBatch = 64;
-  const std::size_t chunk = static_cast<std::size_t>(o.chunk);
-  for (std::size_t b = 0; b < samples.size(); b += chunk) {
-    const std::size_t e = std::min(samples.size(), b + chunk);
-    auto t0 = Clock::now();
-    std::vector<Candidate> cands;
-    for (std::size_t a = b; a < e; a += kAlignBatch) {
-      const std::vector<Eigen::VectorXd> part(samples.begin() + static_cast<long>(a),
-                                              samples.begin() + static_cast<long>(std::min(e, a + kAlignBatch)));
-      const std::vector<AlignResult> aligned = planner.align(part);
-      for (std::size_t i = 0; i < part.size(); ++i) {
-        const auto& poses = aligned[i].poses;
-        for (std::size_t k = 0; k < poses.size() && static_cast<int>(k) < o.poses_per_sample; ++k) {
-          Candidate c;
-          c.sample = static_cast<int>(a + i);
-          c.pose.linear() = poses[k].rotation;
-          c.pose.translation() = poses[k].translation;
-          c.dofs = part[i];
-          c.quality = poses[k].quality;
-          c.votes = poses[k].votes;
-          cands.push_back(std::move(c));
-        }
-      }
-    }
-    report.timings["align"] += seconds_since(t0);
-    report.counts["samples"] += static_cast<long>(e - b);
-    report.counts["aligned_poses"] += static_cast<long>(cands.size());
-    const ChunkReport r = pipe.process(cands);
-    report.counts["settled"] += r.settled;
-    report.counts["settled_aligned"] += r.settled_aligned;
-    report.counts["evaluated"] += r.evaluated;
-    report.timings["settle"] += r.settle_seconds;
-    report.timings["evaluate"] += r.evaluate_seconds;
-  }
-  const auto t0 = Clock::now();
-  FinishTimings ft;
-  report.grasps = pipe.finish(fo, &ft);
-  report.timings["fine_tune"] = seconds_since(t0) - ft.robust;
-  report.timings["robust"] = ft.robust;
-  report.candidates = pipe.evaluated();
-  for (const EvaluatedCandidate& c : report.candidates) report.counts["force_closure"] += c.evaluation.quality.force_closure;
-  return report;
 }
 
 }  // namespace pairgrasp

@@ -1,7 +1,6 @@
 // Robust grasp quality: force closure and epsilon under sampled wrist and friction perturbations.
 #include <pairgrasp/robust.hpp>
 
-#include "collision_internal.hpp"
 #include "random_internal.hpp"
 #include "thread_pool.hpp"
 
@@ -76,14 +75,14 @@ RobustQuality robust_quality(const GraspChecker& checker, const Pose& wrist, con
   detail::parallel_for(n, options.threads, [&](std::size_t k) {
     // A perturbed hand that would start inside the target stops where it first touches on its way in.
     Pose w = poses[k];
-    bool clear = !checker.impl().pruned(w, links);
+    bool clear = !checker.pruned(w, links);
     for (int i = 0; i < kBackoffSteps && !clear; ++i) {
       w.translation() -= kBackoffStep * (w.linear() * approach);
       backed[k] = 1;
-      if (i + 1 < kBackoffSteps) clear = !checker.impl().pruned(w, links);
+      if (i + 1 < kBackoffSteps) clear = !checker.pruned(w, links);
     }
     // Still penetrating: pruned after closing too (a penetrating link never moves), so not closed.
-    if (!clear && checker.impl().penetrating(w, links)) {
+    if (!clear && checker.penetrating(w, links)) {
       pruned[k] = 1;
       return;
     }

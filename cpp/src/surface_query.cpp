@@ -84,6 +84,8 @@ struct SurfaceQuery::Impl {
   std::vector<char> vertex_fan_ok;       // the vertex's faces form one fan
   double tol = 0.0;
   bool closed = false;
+  // Throws when the mesh has no inside (what names the calling function).
+  void require_closed(const char* what) const;
 
   explicit Impl(const Mesh& m);
 
@@ -376,14 +378,14 @@ SurfacePoint SurfaceQuery::closest(const Eigen::Vector3d& p, double max_distance
 
 double SurfaceQuery::distance(const Eigen::Vector3d& p) const { return closest(p).distance; }
 
-static void require_closed(const SurfaceQuery::Impl& impl, const char* what) {
-  if (!impl.closed)
-    throw std::invalid_argument(std::string(what) + ": mesh '" + impl.mesh.source +
+void SurfaceQuery::Impl::require_closed(const char* what) const {
+  if (!closed)
+    throw std::invalid_argument(std::string(what) + ": mesh '" + mesh.source +
                                 "' is not closed, so it has no inside");
 }
 
 bool SurfaceQuery::inside(const Eigen::Vector3d& p) const {
-  require_closed(*impl_, "inside");
+  impl_->require_closed("inside");
   check_finite("p", p);
   Impl::Hit h;
   return impl_->signed_distance(p, h) <= 0.0;
@@ -395,7 +397,7 @@ double SurfaceQuery::signed_distance(const Eigen::Vector3d& p) const {
 }
 
 double SurfaceQuery::signed_distance(const Eigen::Vector3d& p, SurfacePoint& cp) const {
-  require_closed(*impl_, "signed_distance");
+  impl_->require_closed("signed_distance");
   check_finite("p", p);
   Impl::Hit h;
   const double sd = impl_->signed_distance(p, h);
@@ -407,7 +409,7 @@ double SurfaceQuery::signed_distance(const Eigen::Vector3d& p, SurfacePoint& cp)
 }
 
 double SurfaceQuery::signed_distance_hint(const Eigen::Vector3d& p, double distance_bound) const {
-  require_closed(*impl_, "signed_distance");
+  impl_->require_closed("signed_distance");
   check_finite("p", p);
   Impl::Hit h;
   return impl_->signed_distance(p, h, std::isnan(distance_bound) ? std::numeric_limits<double>::infinity()
@@ -554,7 +556,7 @@ Eigen::VectorXd SurfaceQuery::batch_distance(const Points& points, int threads) 
 }
 
 Eigen::VectorXd SurfaceQuery::batch_signed_distance(const Points& points, int threads) const {
-  require_closed(*impl_, "signed_distance");
+  impl_->require_closed("signed_distance");
   check_rows_finite("points", points);
   Eigen::VectorXd out(points.rows());
   const Impl& I = *impl_;
@@ -566,7 +568,7 @@ Eigen::VectorXd SurfaceQuery::batch_signed_distance(const Points& points, int th
 }
 
 Mask SurfaceQuery::batch_inside(const Points& points, int threads) const {
-  require_closed(*impl_, "inside");
+  impl_->require_closed("inside");
   const Eigen::VectorXd sd = batch_signed_distance(points, threads);
   return (sd.array() <= 0.0).matrix();
 }

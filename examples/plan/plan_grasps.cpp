@@ -14,7 +14,7 @@
 #include <pairgrasp/hand.hpp>
 #include <pairgrasp/mesh.hpp>
 #include <pairgrasp/paint.hpp>
-#include <pairgrasp/planner.hpp>
+#include <pairgrasp/search.hpp>
 
 #include <chrono>
 #include <cmath>
@@ -146,7 +146,7 @@ int main(int argc, char** argv) {
     const std::vector<Eigen::VectorXd> samples =
         pg::dof_grid(hand.dof_lower(), hand.dof_upper(), planner.steps(args.step));
     pg::PlanOptions o;
-    o.step = args.step;
+    if (args.step > 0.0) o.step = args.step;
     o.top = args.top;
     o.seed = args.seed;
     o.rank = args.rank;

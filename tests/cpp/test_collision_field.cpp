@@ -110,11 +110,11 @@ void compare(const GraspChecker& exact, const GraspChecker& field, const Poses& 
     EXPECT_TRUE(same) << x.reason << " | " << y.reason;
     // The string-free per-link states that settling and closing use (without FCL's triangle test
     // where the fields leave it open): the same decisions, a depth beyond the tolerance in both.
-    const GraspChecker::Impl &E = exact.impl(), &F = field.impl();
-    const std::vector<Pose> poses = E.target_frame_poses(p.wrists[k], p.dofs[k]);
+    const std::vector<Pose> poses = detail::CheckerAccess::impl(exact).target_frame_poses(p.wrists[k], p.dofs[k]);
     for (std::size_t l = 0; l < poses.size(); ++l) {
-      const auto se = E.link_state(static_cast<int>(l), poses[l]), sf = F.link_state(static_cast<int>(l), poses[l]);
-      const bool state_same = se.bad == sf.bad && se.penetrating == sf.penetrating;
+      const LinkStatus se = exact.link_status(static_cast<int>(l), poses[l]);
+      const LinkStatus sf = field.link_status(static_cast<int>(l), poses[l]);
+      const bool state_same = se.pruned == sf.pruned && se.penetrating == sf.penetrating;
       t.differing += !state_same;
       EXPECT_TRUE(state_same) << "link_state of link " << l;
       if (se.penetrating && sf.penetrating && !x.obstacle_collision) EXPECT_TRUE(se.depth > tol && sf.depth > tol);
@@ -258,7 +258,7 @@ TEST(CollisionField, ClearanceIsExactOrALowerBoundBeyondTheThreshold) {
     SCOPED_TRACE(name);
     const Mesh target = load_mesh(model(std::string("targets/") + name + ".stl"));
     const GraspChecker field(hand, target, Mask(), {}, with_field(true));
-    const GraspChecker::Impl& I = field.impl();
+    const detail::CheckerAccess::Impl& I = detail::CheckerAccess::impl(field);
     const Poses p = random_poses(hand, target, testing_scale::cases(48), seed++, field);
     for (std::size_t k = 0; k < p.wrists.size(); ++k) {
       const std::vector<Pose> poses = I.target_frame_poses(p.wrists[k], p.dofs[k]);

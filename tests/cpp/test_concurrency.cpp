@@ -1,6 +1,7 @@
-// Concurrency: the shared, immutable objects (PairIndex, Aligner, Hand, GraspChecker) used from
-// several caller threads at once, each call itself multithreaded, give exactly the results of
-// serial single-threaded calls. Run under ThreadSanitizer by `make tsan`.
+// Concurrency: the shared, immutable objects (PairIndex, Aligner, Hand, GraspChecker, GraspPlanner)
+// used from several caller threads at once, each call itself multithreaded, give exactly the results
+// of serial single-threaded calls; a GraspSearch, which serves one caller at a time, refuses a second
+// one. Run under ThreadSanitizer by `make tsan` (part of `make check`).
 #include <pairgrasp/aligner.hpp>
 #include <pairgrasp/collision.hpp>
 #include <pairgrasp/facets.hpp>
@@ -8,11 +9,13 @@
 #include <pairgrasp/hand.hpp>
 #include <pairgrasp/mesh.hpp>
 #include <pairgrasp/pair_index.hpp>
-#include <pairgrasp/planner.hpp>
+#include <pairgrasp/error.hpp>
+#include <pairgrasp/search.hpp>
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <memory>
 #include <string>
 #include <thread>
@@ -236,6 +239,74 @@ TEST_F(Concurrency, AreaConstellationsComputedOnSeveralThreadsAtOnceAgree) {
     EXPECT_TRUE(c.normals == ref.normals);
     EXPECT_EQ(c.link, ref.link);
   }
+}
+
+TEST_F(Concurrency, SearchesOnOneSharedPlannerFromSeveralThreadsEqualSerial) {
+  // Each caller runs a whole search (align, settle, evaluate, fine-tune, robust scoring) on the
+  // same planner with two threads of its own; every result equals a one-thread search's.
+  PlannerOptions po;
+  po.threads = 1;
+  po.edge = 0.008;
+  const GraspPlanner serial(*hand_, *mesh_, Mask(), {}, po);
+  po.threads = 2;
+  const GraspPlanner shared(*hand_, *mesh_, Mask(), {}, po);
+  PlanOptions o;
+  o.top = 3;
+  o.fine_tune = 2;
+  o.fine_tune_iterations = 4;
+  o.seed = 7;
+  o.rank = Ranking::Robust;
+  o.robust_samples = 3;
+  o.chunk = 4;
+  const PlanReport ref = plan_samples(serial, samples_, o);
+  ASSERT_FALSE(ref.grasps.empty());
+  std::vector<PlanReport> got(kCallers);
+  on_callers([&](int t) { got[t] = plan_samples(shared, samples_, o); });
+  for (int t = 0; t < kCallers; ++t) {
+    ASSERT_EQ(got[t].grasps.size(), ref.grasps.size()) << "caller " << t;
+    ASSERT_EQ(got[t].candidates.size(), ref.candidates.size()) << "caller " << t;
+    for (std::size_t k = 0; k < ref.grasps.size(); ++k) {
+      EXPECT_EQ(got[t].grasps[k].quality.epsilon, ref.grasps[k].quality.epsilon) << "caller " << t << ", rank " << k;
+      EXPECT_TRUE(got[t].grasps[k].evaluation.wrist.matrix() == ref.grasps[k].evaluation.wrist.matrix());
+      ASSERT_TRUE(got[t].grasps[k].robust && ref.grasps[k].robust);
+      EXPECT_EQ(got[t].grasps[k].robust->force_closure_probability, ref.grasps[k].robust->force_closure_probability);
+    }
+    EXPECT_EQ(got[t].counts, ref.counts) << "caller " << t;
+  }
+}
+
+TEST_F(Concurrency, ASecondCallerOfOneSearchIsRefused) {
+  PlannerOptions po;
+  po.edge = 0.008;
+  const GraspPlanner planner(*hand_, *mesh_, Mask(), {}, po);
+  GraspSearch search(planner);
+  std::vector<Eigen::VectorXd> many;
+  for (int r = 0; r < 8; ++r) many.insert(many.end(), samples_.begin(), samples_.end());
+  std::atomic<bool> done{false};
+  std::thread worker([&] {
+    for (;;) {  // finish() below may hold the search when this starts: retry until it runs
+      try {
+        search.add_samples(many);
+        break;
+      } catch (const BusyError&) {
+      }
+    }
+    done = true;
+  });
+  bool refused = false;
+  std::string message;
+  while (!refused && !done) {
+    try {
+      search.finish();
+    } catch (const BusyError& e) {
+      refused = true;
+      message = e.what();
+    }
+  }
+  worker.join();
+  ASSERT_TRUE(refused) << "the search finished before a second call could overlap it";
+  EXPECT_NE(message.find("GraspSearch"), std::string::npos) << message;
+  EXPECT_EQ(search.samples().size(), many.size());  // the first caller's call was not disturbed
 }
 
 }  // namespace

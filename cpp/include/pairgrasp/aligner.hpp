@@ -173,8 +173,10 @@ class Aligner {
   AlignResult align(const Points& points, const Points& normals) const;
 
   /// Aligns many constellations on all `options().threads` workers (one constellation per
-  /// task); result k belongs to constellation k and equals align() of it.
-  std::vector<AlignResult> align_many(const std::vector<Constellation>& constellations) const;
+  /// task); result k belongs to constellation k and equals align() of it. `max_poses` > 0 returns
+  /// that many poses at most instead of options().max_poses (the best k poses are the same for
+  /// every max_poses >= k).
+  std::vector<AlignResult> align_many(const std::vector<Constellation>& constellations, int max_poses = 0) const;
 
   /// The options with every default resolved (tolerances filled in from the index spacing).
   const AlignerOptions& options() const;

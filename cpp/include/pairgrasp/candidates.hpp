@@ -34,6 +34,7 @@
 #include <pairgrasp/robust.hpp>
 #include <pairgrasp/types.hpp>
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <memory>
@@ -95,6 +96,10 @@ struct EvaluatedCandidate {
   GraspEvaluation evaluation;          ///< closed, checked and scored at the settled pose
   double seconds = 0.0;                ///< time from the pipeline's creation until the evaluation finished
 };
+
+/// Whether `a` ranks before `b` in finish()'s order of candidates: unpruned, then force closure,
+/// then epsilon, then alignment quality, then votes.
+bool ranks_before(const EvaluatedCandidate& a, const EvaluatedCandidate& b);
 
 /// What one call of CandidatePipeline::process() did.
 struct ChunkReport {
@@ -189,7 +194,9 @@ struct FinishTimings {
   double robust = 0.0;     ///< robust_quality() of the grasps that may be returned
 };
 
-/// Settles, deduplicates and evaluates candidates chunk by chunk, then ranks and fine-tunes.
+/// Settles, deduplicates and evaluates candidates chunk by chunk, then ranks and fine-tunes. It
+/// serves one caller at a time: process() or finish() called while another thread's call runs
+/// throws BusyError (each call uses the library's threads itself).
 class CandidatePipeline {
  public:
   /// Throws std::invalid_argument for bad options (naming them).
@@ -227,6 +234,7 @@ class CandidatePipeline {
   std::set<std::vector<std::int64_t>> seen_;  // deduplication keys
   std::vector<EvaluatedCandidate> evaluated_;
   std::chrono::steady_clock::time_point created_;
+  mutable std::atomic<bool> busy_{false};
 };
 
 }  // namespace pairgrasp

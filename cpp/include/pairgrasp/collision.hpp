@@ -65,6 +65,29 @@ struct CheckOptions {
   std::optional<SupportPlane> support;
 };
 
+/// An estimate of the peak bytes of the distance fields a GraspChecker with `options` builds for
+/// `target` and its occluded faces (`free`: per face, true = free; the links' fields are small):
+/// DistanceField::estimate_bytes() of each, in microseconds. 0 without distance fields.
+std::size_t estimate_field_bytes(const Mesh& target, const Mask& free, const CheckOptions& options);
+
+/// How one link at a pose meets the target, the obstacles and the occluded faces
+/// (GraspChecker::link_status()).
+struct LinkStatus {
+  /// The link alone would make check() prune: it penetrates the target beyond the depth
+  /// tolerance, intersects or lies inside an obstacle, or comes within the contact gap of an
+  /// occluded face.
+  bool pruned = false;
+  bool penetrating = false;  ///< beyond the depth tolerance in the target, or in an obstacle
+  /// Deepest penetration into anything (m), searched as check() with exact_depth false: a lower
+  /// bound beyond the tolerance.
+  double depth = 0.0;
+};
+
+class GraspChecker;
+namespace detail {
+struct CheckerAccess;  // the closing and contact functions' access to the checker's state
+}  // namespace detail
+
 /// What one link collides with.
 struct CollisionPair {
   std::string link;          ///< hand link name
@@ -140,6 +163,19 @@ class GraspChecker {
                                       const std::vector<Eigen::VectorXd>& dofs,
                                       int threads = -1, bool exact_depth = true) const;
 
+  /// Link `link` (Hand::links() index) at `pose` (target frame) alone: the per-link part of check()
+  /// without its report, for code that checks again only the links a change moved. Thread-safe.
+  /// Throws std::invalid_argument ("link: ...") for an index out of range.
+  LinkStatus link_status(int link, const Pose& pose) const;
+  /// check()'s verdict without its report (stops at the first link that prunes), for the hand at
+  /// `wrist` with its links at `link_poses` (wrist frame: Hand::link_poses(dofs, true)).
+  bool pruned(const Pose& wrist, const std::vector<Pose>& link_poses) const;
+  /// Whether some link at `wrist` and `link_poses` penetrates (LinkStatus::penetrating). Closing
+  /// never moves such a link (close_fingers()), so the closed grasp is pruned too.
+  bool penetrating(const Pose& wrist, const std::vector<Pose>& link_poses) const;
+  /// Per DOF, the links (Hand::links() indices) whose pose changes when it moves.
+  const std::vector<std::vector<int>>& dof_links() const;
+
   const Hand& hand() const;
   const Mesh& target() const;
   /// The target's per-face free mask (all true when none was given).
@@ -156,11 +192,9 @@ class GraspChecker {
   std::size_t distance_field_bytes() const;
   double distance_field_seconds() const;
 
-  struct Impl;
-  /// Internal state (used by the closing and contact functions of grasp.hpp).
-  const Impl& impl() const { return *impl_; }
-
  private:
+  struct Impl;  // defined in the library's sources
+  friend struct detail::CheckerAccess;
   std::shared_ptr<const Impl> impl_;
 };
 

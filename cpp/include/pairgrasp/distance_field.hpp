@@ -62,6 +62,14 @@ class DistanceField {
   /// grid would have more than 2^31 nodes.
   explicit DistanceField(const SurfaceQuery& query, const DistanceFieldOptions& options = {});
 
+  /// An estimate of the peak bytes of building a field of `mesh` with `options`, computed from its
+  /// bounding box (or the region) and surface area in microseconds: every brick's table entry and
+  /// centre, and the nodes (with the build's temporary node ids) of the bricks a flat surface of
+  /// that area passes within the band of. The built field keeps about a third of it (nbytes()).
+  /// Used to refuse a field over a memory budget before building it; the same cell and band checks
+  /// as the constructor.
+  static std::size_t estimate_bytes(const Mesh& mesh, const DistanceFieldOptions& options);
+
   /// Bounds of the exact distance at p (metres). Thread-safe. p must be finite.
   FieldSample sample(const Eigen::Vector3d& p) const;
 

@@ -10,6 +10,9 @@
 ///   (Python: ValueError.)
 /// - A request that cannot be met within a configured resource bound (pair budget) throws
 ///   pairgrasp::BudgetError, a std::invalid_argument that says what would fit. (Python: ValueError.)
+/// - An object that serves one caller at a time (GraspSearch, CandidatePipeline) called from a
+///   second thread while a call runs throws pairgrasp::BusyError, a std::logic_error naming the
+///   object. (Python: RuntimeError.)
 /// No function returns NaN or a silently wrong answer for bad input.
 #include <stdexcept>
 #include <string>
@@ -32,6 +35,12 @@ class FileError : public std::runtime_error {
 class BudgetError : public std::invalid_argument {
  public:
   using std::invalid_argument::invalid_argument;
+};
+
+/// A second thread called an object that serves one caller at a time while a call was running.
+class BusyError : public std::logic_error {
+ public:
+  using std::logic_error::logic_error;
 };
 
 namespace detail {

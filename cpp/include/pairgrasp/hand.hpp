@@ -166,9 +166,8 @@ class Hand {
   Constellation constellation(const Eigen::VectorXd& dofs, ConstellationMode mode,
                               double spacing = 0.01, bool clamp = false) const;
 
-  struct Impl;
-
  private:
+  struct Impl;  // defined in the library's sources
   explicit Hand(std::shared_ptr<const Impl> impl);
   std::shared_ptr<const Impl> impl_;
 };

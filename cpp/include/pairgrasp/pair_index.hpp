@@ -80,8 +80,8 @@ class PairIndex {
   /// (nodes, 6) float32 boxes of the hierarchy in heap order: min d, phi, beta then max.
   const std::vector<float>& node_boxes() const;
 
-  struct Impl;
  private:
+  struct Impl;  // defined in the library's sources
   std::shared_ptr<const Impl> impl_;
 };
 

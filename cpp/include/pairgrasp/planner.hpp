@@ -2,10 +2,9 @@
 /// @file planner.hpp
 /// Planning from C++: a GraspPlanner holds everything built once per hand and target (the
 /// parameters resolved from the hand and the target, the target's unit facets and pair index, the
-/// aligner, the grasp checker); plan_samples() runs a list of DOF samples through alignment and the
-/// candidate pipeline (candidates.hpp) to ranked grasps. The Python Planner builds the same
-/// GraspPlanner and drives the same steps chunk by chunk, with its coarse-to-fine schedule on top;
-/// for the same samples, parameters and seed both return the same grasps.
+/// aligner, the grasp checker). It is a handle: copies share the same immutable state, and every
+/// const member may be called from several threads at once. One plan's search over it is a
+/// GraspSearch (search.hpp); plan_samples() runs a list of DOF samples through one.
 ///
 /// Frames: wrist poses map wrist coordinates to target coordinates (p_T = R·p_G + t). Lengths are
 /// metres, angles radians.
@@ -21,6 +20,7 @@
 #include <cstddef>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -33,27 +33,33 @@ enum class ConstellationChoice {
   Area,     ///< samples spread over the active surfaces
 };
 
-/// Options of GraspPlanner: what is fixed once the target is indexed. A value of 0 (or < 0 where
-/// said) means "derive it", as documented per field.
+/// Options of GraspPlanner: what is fixed once the target is indexed. An unset optional is derived
+/// as documented per field.
 struct PlannerOptions {
-  /// Unit-facet edge h (m); 0: 5 mm, or 1/15 of the target's smallest extent if smaller, or
+  /// Unit-facet edge h (m); unset: 5 mm, or 1/15 of the target's smallest extent if smaller, or
   /// coarser when the pair budget requires it (suggest_edge()).
-  double edge = 0.0;
-  /// Largest stored pair distance (m); 0: the largest distance between two constellation samples
-  /// over the hand's DOF range (corners and middles of every DOF), plus h.
-  double d_max = 0.0;
+  std::optional<double> edge;
+  /// Largest stored pair distance (m); unset: the largest distance between two constellation
+  /// samples over the hand's DOF range (corners and middles of every DOF), plus h.
+  std::optional<double> d_max;
   std::size_t max_pairs = 20'000'000;  ///< pair budget of the index
   ConstellationChoice constellation = ConstellationChoice::Auto;
-  /// Area-sample spacing (m); 0: the smallest of h·1.25^k giving at most max_area_samples at mid-range.
-  double spacing = 0.0;
+  /// Area-sample spacing (m); unset: the smallest of h·1.25^k giving at most max_area_samples at mid-range.
+  std::optional<double> spacing;
   int max_area_samples = 24;
-  double depth_tolerance = -1.0;  ///< penetration tolerated (m); < 0: h / 4
-  double gap = 0.001;             ///< contact gap (m)
-  /// Largest back-off along the approach axis when settling (m); < 0: half the hand's reach (the
-  /// largest distance of a per-link constellation sample from the wrist).
-  double backoff = -1.0;
-  int max_poses = 12;  ///< aligned poses kept per sample at most (the aligner's max_poses)
-  int threads = 0;     ///< 0: every core
+  std::optional<double> depth_tolerance;  ///< penetration tolerated (m); unset: h / 4
+  double gap = 0.001;                     ///< contact gap (m)
+  /// Largest back-off along the approach axis when settling (m), the default of every search
+  /// (PlanOptions::backoff); unset: half the hand's reach (the largest distance of a per-link
+  /// constellation sample from the wrist).
+  std::optional<double> backoff;
+  /// Cell edge of the checker's distance fields (m; CheckOptions::field_cell); unset: h / 5 (1 mm
+  /// at the default 5 mm edge), so that the fields' error keeps its ratio to the depth tolerance.
+  std::optional<double> field_cell;
+  /// Memory budget of the target's distance fields (bytes), checked on an estimate before they
+  /// are built (BudgetError past it).
+  std::size_t max_field_bytes = std::size_t(2) << 30;
+  int threads = 0;  ///< 0: every core
 };
 
 /// The parameters a GraspPlanner resolved from the hand and the target (before the index is
@@ -66,7 +72,13 @@ struct PlannerSetup {
   double depth_tolerance = 0.0;  ///< m
   double backoff = 0.0;          ///< m
   double reach = 0.0;            ///< largest distance of a constellation sample from the wrist (m)
+  double field_cell = 0.0;       ///< cell edge of the checker's distance fields (m)
 };
+
+/// The largest distance between two per-link constellation samples of `hand` over its DOF range
+/// (every DOF at its limits and middle), in metres: how far apart the hand's contacts can be, and
+/// the derived d_max less the unit-facet edge in per-link mode.
+double hand_span(const Hand& hand);
 
 /// The power of ten that brings the largest extent of `target` nearest (in ratio) to `hand_span`
 /// metres: 0.001 for a hand-sized object in millimetres, 1 for one in metres; 1 for an empty or flat mesh.
@@ -84,6 +96,10 @@ void check_target_scale(const Mesh& target, double hand_span);
 /// only grows (the pair budget), so a quarter of it bounds the derived depth tolerance from below:
 /// the error a simplification of the target may make.
 double finest_edge(const Mesh& target);
+
+/// Throws std::invalid_argument naming the first bad field of `options` (a length that is not finite
+/// or not positive, a count below its least value).
+void validate(const PlannerOptions& options);
 
 /// Resolves PlannerOptions for a hand and a target (see each option), checking the target's scale
 /// against d_max (check_target_scale()) before anything large is computed. Throws
@@ -119,7 +135,8 @@ class GraspPlanner {
   /// edge given, else 5 mm or 1/15 of the target's smallest extent), tessellates and indexes it,
   /// and builds the aligner and the grasp checker (the scene's obstacles and support). Throws
   /// std::invalid_argument for bad options or scene fields (named as in free_surface()),
-  /// BudgetError when the pair budget cannot be met.
+  /// BudgetError when the pair budget cannot be met or the checker's distance fields would take
+  /// more than max_field_bytes (estimate_field_bytes(), before anything large is built).
   GraspPlanner(const Hand& hand, const Mesh& target, const Scene& scene, const PlannerOptions& options = {});
   /// A scene of a paint mask (per face; empty: all free) and obstacles.
   GraspPlanner(const Hand& hand, const Mesh& target, const Mask& free = Mask(),
@@ -150,8 +167,8 @@ class GraspPlanner {
   /// The constellation aligned for a DOF sample (the resolved mode and spacing).
   Constellation constellation(const Eigen::VectorXd& dofs) const;
   /// Aligns each sample's constellation (all threads, one sample per task); result k belongs to
-  /// samples[k], best pose first, at most options().max_poses poses.
-  std::vector<AlignResult> align(const std::vector<Eigen::VectorXd>& samples) const;
+  /// samples[k], best pose first, at most `max_poses` poses (0: the aligner's, 10).
+  std::vector<AlignResult> align(const std::vector<Eigen::VectorXd>& samples, int max_poses = 0) const;
   /// Early-rejection score of each sample (all threads): the fraction of its constellation's
   /// pairs whose feature (normals flipped, d <= d_max) matches at least one stored target pair
   /// within the aligner's feature tolerance (0 for fewer than 2 points). A sample whose fraction
@@ -162,39 +179,5 @@ class GraspPlanner {
   struct State;
   std::shared_ptr<const State> state_;
 };
-
-/// Options of plan_samples().
-struct PlanOptions {
-  int poses_per_sample = 3;  ///< best aligned poses of each sample that become candidates
-  int chunk = 128;           ///< samples aligned, settled and evaluated together
-  double step = 0.0;         ///< sampling step of angular DOFs (rad) for fine-tuning and deduplication; 0: the hand's
-  int top = 10;              ///< grasps returned
-  int fine_tune = 5;         ///< best distinct grasps fine-tuned
-  int fine_tune_iterations = 20;
-  std::uint64_t seed = 0;    ///< the grasp of rank k is fine-tuned with seed + k
-  double mu = 0.5;           ///< friction coefficient
-  int edges = 8;             ///< friction-pyramid edges
-  int contacts_per_link = 4; ///< contacts scored per link while searching (0: every contact)
-  int max_evaluations = -1;  ///< candidates evaluated at most (< 0: all)
-  /// PipelineOptions::hull_rank: only candidates that can reach this many best epsilons pay for
-  /// the full hull (< 0: hull_rank_for() of the finish options; 0: every candidate).
-  int hull_rank = -1;
-  Ranking rank = FinishOptions().rank;  ///< FinishOptions::rank
-  int robust_samples = 8;          ///< RobustOptions::samples of the robust ranking
-};
-
-/// What plan_samples() returns.
-struct PlanReport {
-  std::vector<RankedGrasp> grasps;               ///< best first
-  std::vector<EvaluatedCandidate> candidates;    ///< every evaluated candidate, in evaluation order
-  std::map<std::string, long> counts;            ///< samples, aligned_poses, settled, settled_aligned, evaluated, force_closure
-  std::map<std::string, double> timings;         ///< seconds: align, settle, evaluate, fine_tune, robust
-};
-
-/// Runs `samples` (DOF vectors within the limits) through alignment, the candidate pipeline and the
-/// ranking, `options.chunk` samples at a time, on the planner's threads. Deterministic for a seed and
-/// independent of the thread count. Throws std::invalid_argument for bad options or samples.
-PlanReport plan_samples(const GraspPlanner& planner, const std::vector<Eigen::VectorXd>& samples,
-                        const PlanOptions& options = {});
 
 }  // namespace pairgrasp

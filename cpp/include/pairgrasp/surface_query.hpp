@@ -131,9 +131,8 @@ class SurfaceQuery {
   RayHits batch_ray_cast(const Points& origins, const Points& directions, int threads = 0,
                    double max_t = std::numeric_limits<double>::infinity()) const;
 
-  struct Impl;
-
  private:
+  struct Impl;  // defined in the library's sources
   std::shared_ptr<const Impl> impl_;
 };
 
