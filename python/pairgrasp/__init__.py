@@ -9,7 +9,7 @@ from ._core import FileError, version  # noqa: F401
 __version__ = version()
 from .quality import (GraspQuality, LOAD_DIRECTIONS, contact_frames, epsilon_upper_bound, force_resistance,  # noqa: F401,E402
                       grasp_quality, load_resistance, wrench_matrix)
-from .planner import Candidate, Grasp, PlanParams, PlanResult, Planner, dof_grid, support_plane  # noqa: F401,E402
+from .planner import Candidate, Grasp, PlanParams, PlanResult, Planner, dof_axes, dof_grid, support_plane  # noqa: F401,E402
 from .checks import InputWarning  # noqa: F401,E402
 from .grasps_file import GRASPS_FORMAT, GraspsFile, load_grasps, parse_grasps, write_grasps  # noqa: F401,E402
 from .inertia import MassProperties, mass_properties  # noqa: F401,E402

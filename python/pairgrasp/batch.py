@@ -90,7 +90,7 @@ def plan_batch(hand, targets: Sequence, out, engine: str = "local", *, address: 
         ValueError: bad arguments (nothing planned); a failing target does not raise.
         ImportError: ``engine="ray"`` without Ray.
     """
-    from .planner import _Progress
+    from .planner import Progress
 
     if engine not in ("local", "ray"):
         raise ValueError(f"engine: expected 'local' or 'ray', got {engine!r}")
@@ -143,7 +143,7 @@ def plan_batch(hand, targets: Sequence, out, engine: str = "local", *, address: 
             tasks.append(_task(stem, target))
         except (OSError, ValueError) as e:
             rows[stem] = _row(target, "failed", error=_one_line(e))
-    bar = _Progress(progress)
+    bar = Progress(progress)
     bar.start("batch", len(targets))
     bar.advance(len(rows))
     summary = os.path.join(out, "summary.csv")

@@ -64,15 +64,21 @@ def _cmd_info(args) -> int:
     return 0
 
 
+# The PlanParams fields the target options (_add_target_options) set, when given.
+_PLAN_PARAMS = ("schedule", "step", "top", "seed", "time_limit", "edge", "field_cell", "max_field_memory", "threads",
+                "rank")
+
+
+def _plan_params(args) -> dict:
+    """The PlanParams fields a `plan`, `figures` or `batch` command line gives."""
+    return {k: getattr(args, k) for k in _PLAN_PARAMS if getattr(args, k) is not None}
+
+
 def _planner_from_args(args):
     """The Planner of a `plan` (or `figures`) command line."""
-    params = dict(schedule=args.schedule, step=args.step, top=args.top, seed=args.seed, threads=args.threads,
-                  time_limit=args.time_limit, rank=args.rank)
-    if args.edge is not None:
-        params["edge"] = args.edge
     return planner_from_files(args.hand, args.target, paint=args.paint, occluders=args.occluder or (),
                               obstacles=args.obstacle or (), viewpoints=args.viewpoint, support=args.support,
-                              occluder_distance=args.occluder_distance, scale=args.scale, **params)
+                              occluder_distance=args.occluder_distance, scale=args.scale, **_plan_params(args))
 
 
 def _table(grasps, held=None) -> str:
@@ -133,8 +139,7 @@ def _cmd_batch(args) -> int:
     if args.address is not None and args.engine != "ray":
         raise ValueError("--address: only with --engine ray")
     t0 = time.perf_counter()
-    options = {k: getattr(args, k) for k in ("schedule", "step", "top", "seed", "time_limit", "edge", "threads", "rank")
-               if getattr(args, k) is not None}
+    options = _plan_params(args)
     rows = plan_batch(args.hand, args.targets, args.output, engine=args.engine, address=args.address,
                       workers=args.workers, retries=args.retries, pictures=args.pictures,
                       viewpoints=args.viewpoint, obstacles=args.obstacle or (), scale=args.scale,
@@ -159,16 +164,14 @@ def _cmd_batch(args) -> int:
 
 
 def _verify(args, planner, result, path, doc):
-    """plan --verify-top: simulates the best grasps (written to ``path`` first) and re-ranks them by
-    how often they held; returns the grasps in the new order and {planned rank: success rate}."""
-    from .grasps_file import load_grasps, write_grasps
+    """plan --verify-top: simulates the best grasps of the document (to be written to ``path``) and
+    re-ranks them in it by how often they held; returns the grasps in the new order and {planned
+    rank: success rate}."""
     from .sim import verify_grasps
 
-    write_grasps(path, doc)
-    order = verify_grasps(path, top=args.verify_top, trials=args.trials, seed=args.seed,
+    order = verify_grasps(path, top=args.verify_top, trials=args.trials, seed=args.seed, document=doc,
                           hand=planner.hand, target=planner.target)
-    saved = load_grasps(path).document
-    held = {g["planned_rank"]: g["simulation"]["success_rate"] for g in saved["grasps"] if "simulation" in g}
+    held = {g["planned_rank"]: g["simulation"]["success_rate"] for g in doc["grasps"] if "simulation" in g}
     by_rank = {g.rank: g for g in result.grasps}
     return [by_rank[r] for r in order], held
 
@@ -355,6 +358,10 @@ def _add_target_options(p, threads_help="worker threads (default 0: every core)"
     p.add_argument("--schedule", choices=("grid", "fast"), default="fast", help="DOF schedule (default fast)")
     p.add_argument("--step", type=_positive_float, help="DOF sampling step (rad; default the hand's)")
     p.add_argument("--edge", type=_positive_float, help="unit-facet edge h (m; default automatic)")
+    p.add_argument("--field-cell", type=_positive_float, metavar="M",
+                   help="cell of the collision checker's distance fields (m; default h/5, 1 mm at h = 5 mm)")
+    p.add_argument("--max-field-memory", type=_positive_float, metavar="GB",
+                   help="refuse a target whose distance fields would take more (default 2 GB)")
     p.add_argument("--time-limit", type=_positive_float, metavar="S",
                    help="stop searching after S seconds and return the best grasps so far (default: no limit)")
     p.add_argument("--top", type=_count(1), default=10, help="grasps kept (default 10)")

@@ -248,7 +248,7 @@ def write_grasps(path, doc: dict) -> None:
         raise
 
 
-def _resolve(path, base, where) -> str:
+def resolve_path(path, base, where) -> str:
     """A file recorded in a grasps.json's ``inputs``: as written, else relative to the file's folder."""
     if not isinstance(path, str) or path == "<mesh>":
         raise FileError(f"{where}: the plan did not record a file ({path!r}); pass it explicitly")
@@ -259,7 +259,7 @@ def _resolve(path, base, where) -> str:
 
 
 @dataclass(frozen=True)
-class _Planned:
+class Planned:
     """A grasps.json read back with the hand and target it was planned for."""
 
     grasps: GraspsFile
@@ -269,18 +269,20 @@ class _Planned:
     base: str
 
 
-def _load_planned(path, hand=None, target=None) -> _Planned:
+def load_planned(path, hand=None, target=None, document=None) -> Planned:
     """Reads a grasps.json with its hand and target (given, or the files its ``inputs`` record):
     the grasps are checked against the hand, the target against the recorded face count.
+    ``document``: the file's parsed content, used instead of reading ``path`` (which still names it
+    and is the folder recorded paths are relative to).
     Raises FileError for a bad file or a missing input, ValueError for another hand or target."""
     from . import _core
 
     path = os.fspath(path)
-    gf = load_grasps(path)
+    gf = load_grasps(path) if document is None else parse_grasps(document, path)
     base = os.path.dirname(os.path.abspath(path))
     inputs = gf.inputs
     if hand is None:
-        hand = _core.load_hand(_resolve(inputs.get("hand_spec"), base, f"{path}: inputs.hand_spec"))
+        hand = _core.load_hand(resolve_path(inputs.get("hand_spec"), base, f"{path}: inputs.hand_spec"))
     elif not isinstance(hand, _core.Hand):
         hand = _core.load_hand(os.fspath(hand))
     planned_for = inputs.get("hand")
@@ -289,13 +291,13 @@ def _load_planned(path, hand=None, target=None) -> _Planned:
     gf = parse_grasps(gf.document, path, hand)  # DOF counts and limits against this hand
     scale = float(inputs.get("scale", 1.0))
     if target is None:
-        target = _core.load_mesh(_resolve(inputs.get("target"), base, f"{path}: inputs.target"), scale=scale)
+        target = _core.load_mesh(resolve_path(inputs.get("target"), base, f"{path}: inputs.target"), scale=scale)
     elif not isinstance(target, _core.Mesh):
         target = _core.load_mesh(os.fspath(target), scale=scale)
     if len(target.faces) != inputs.get("target_faces", len(target.faces)):
         raise ValueError(f"{path}: the grasps were planned on a target of {inputs['target_faces']} faces, "
                          f"this one has {len(target.faces)}")
-    return _Planned(grasps=gf, hand=hand, target=target, scale=scale, base=base)
+    return Planned(grasps=gf, hand=hand, target=target, scale=scale, base=base)
 
 
 
@@ -314,7 +316,7 @@ def recorded_support(inputs: dict):
             from None
 
 
-def recorded_free_surface(planned: _Planned, path: str, notes: List[str]):
+def recorded_free_surface(planned: Planned, path: str, notes: List[str]):
     """The plan's free surface rebuilt from the recorded paint file, occluders, viewpoints and support
     at the recorded resolution: (pairgrasp.FreeSurface, occluder meshes). A difference from the
     recorded count of free faces, or an input that was not recorded, is added to ``notes``."""
@@ -323,13 +325,13 @@ def recorded_free_surface(planned: _Planned, path: str, notes: List[str]):
     inputs, target, base = planned.grasps.inputs, planned.target, planned.base
     faces = regions = None
     if inputs.get("paint") is not None:
-        faces, regions = _core.read_paint(_resolve(inputs["paint"], base, f"{path}: inputs.paint"), target)
+        faces, regions = _core.read_paint(resolve_path(inputs["paint"], base, f"{path}: inputs.paint"), target)
     occ = []
     for k, o in enumerate(inputs.get("occluders") or []):
         if o == "<mesh>":
             notes.append(f"inputs.occluders[{k}] was an in-memory mesh: not shown, the surface near it not marked")
             continue
-        occ.append(_core.load_mesh(_resolve(o, base, f"{path}: inputs.occluders[{k}]"), scale=planned.scale))
+        occ.append(_core.load_mesh(resolve_path(o, base, f"{path}: inputs.occluders[{k}]"), scale=planned.scale))
     vp = inputs.get("viewpoints")
     resolution = (inputs.get("free_surface") or {}).get("resolution", float("inf"))
     surface = _core.free_surface(target, paint=faces, regions=regions or None, occluders=occ,

@@ -54,6 +54,10 @@ class PlanParams:
             force closure is rare gets more pose hypotheses from the alignments already made.
         depth_tolerance: penetration tolerated (m); None: h / 4.
         gap: contact gap (m).
+        field_cell: cell edge of the grasp checker's distance fields (m); None: h / 5 (1 mm at the
+            default 5 mm edge), so their error keeps its ratio to the depth tolerance.
+        max_field_memory: budget of those fields (GB), checked on an estimate before they are
+            built: a target over it is refused at once, naming this field.
         backoff: largest back-off along the approach axis when settling (m); None: the hand's
             reach (the largest distance of a constellation sample from the wrist) / 2.
         max_evaluations: candidates closed and scored at most, best Q_A first within each chunk
@@ -69,8 +73,8 @@ class PlanParams:
         fine_tune_iterations: trials per fine-tuned grasp.
         contacts_per_link: while searching, epsilon is computed from at most this many contacts per
             link (:func:`pairgrasp.reduce_contacts`, a lower bound); the returned grasps are scored
-            again with every contact. None: every contact throughout (slower by ~10x on the Barrett
-            hand, whose links report patches of ~100 contacts).
+            again with every contact. None or 0: every contact throughout (slower by ~10x on the
+            Barrett hand, whose links report patches of ~100 contacts).
         mu, edges: friction coefficient and friction-pyramid edges.
         rank: how the returned grasps are ordered. ``"load"`` (the default): of the
             ``max(top, 10)`` best distinct grasps by epsilon, rank 1 is the force-closure grasp
@@ -113,6 +117,8 @@ class PlanParams:
     max_poses_per_sample: int = 12
     depth_tolerance: Optional[float] = None
     gap: float = 0.001
+    field_cell: Optional[float] = None
+    max_field_memory: float = 2.0
     backoff: Optional[float] = None
     max_evaluations: Optional[int] = None
     chunk: int = 128
@@ -129,40 +135,53 @@ class PlanParams:
     threads: int = 0
 
     def validate(self) -> None:
-        """Raises ValueError naming the first bad field."""
+        """Raises ValueError naming the first bad field. The fields the C++ options carry are
+        checked by C++ (PlannerOptions and PlanOptions, the same messages as from C++); the others,
+        the Python schedule's, here."""
         if self.schedule not in ("grid", "fast"):
             raise ValueError(f"schedule: expected 'grid' or 'fast', got {self.schedule!r}")
-        if self.rank not in _core.RANKINGS:
-            names = ", ".join(repr(r) for r in _core.RANKINGS[:-1]) + f" or {_core.RANKINGS[-1]!r}"
-            raise ValueError(f"rank: expected {names}, got {self.rank!r}")
-        if self.constellation not in ("auto", "per_link", "area"):
-            raise ValueError(f"constellation: expected 'auto', 'per_link' or 'area', got {self.constellation!r}")
-        for name in ("step", "edge", "d_max", "spacing", "backoff", "depth_tolerance", "time_limit"):
-            v = getattr(self, name)
-            if v is not None:
-                _positive(name, v, allow_zero=name in ("backoff", "depth_tolerance"))
-        _positive("gap", self.gap, allow_zero=True)
-        _positive("mu", self.mu, allow_zero=True)
         for name in ("min_match_fraction", "min_force_closure_rate"):
             v = getattr(self, name)
             if not (isinstance(v, numbers.Real) and not isinstance(v, bool) and 0.0 <= v <= 1.0):
                 raise ValueError(f"{name}: expected a number in [0, 1], got {v!r}")
+        if self.time_limit is not None:
+            _positive("time_limit", self.time_limit)
+        _positive("max_field_memory", self.max_field_memory)
         if self.poses_per_sample is not None:
             _integer("poses_per_sample", self.poses_per_sample, 1)
-        for name, low in (("max_pairs", 1), ("max_area_samples", 3), ("max_poses_per_sample", 1),
-                          ("coarse_factor", 1), ("refine", 0), ("refine_rounds", 0), ("chunk", 1), ("fine_tune", 0), ("fine_tune_iterations", 0),
-                          ("edges", 3), ("robust_samples", 1), ("top", 1), ("seed", 0), ("threads", 0)):
+        for name, low in (("coarse_factor", 1), ("refine", 0), ("refine_rounds", 0)):
             _integer(name, getattr(self, name), low)
-        for name, low in (("max_evaluations", 1), ("max_faces", 4)):
-            if getattr(self, name) is not None:
-                _integer(name, getattr(self, name), low)
-        if self.contacts_per_link is not None:
-            _integer("contacts_per_link", self.contacts_per_link, 1)
+        if self.max_faces is not None:
+            _integer("max_faces", self.max_faces, 4)
+        if self.reject is not None and not isinstance(self.reject, bool):
+            raise ValueError(f"reject: expected True, False or None, got {self.reject!r}")
+        _core.check_planner_options(**self.planner_options())
+        _core.check_plan_options(**self.search_options())
+
+    def planner_options(self) -> dict:
+        """The fields fixed when a planner is built, as :class:`pairgrasp.GraspPlanner` keywords (C++
+        PlannerOptions)."""
+        return dict(edge=self.edge, d_max=self.d_max, max_pairs=self.max_pairs, constellation=self.constellation,
+                    spacing=self.spacing, max_area_samples=self.max_area_samples,
+                    depth_tolerance=self.depth_tolerance, gap=self.gap, backoff=self.backoff,
+                    field_cell=self.field_cell, max_field_bytes=self.max_field_memory * 1e9, threads=self.threads)
+
+    def search_options(self) -> dict:
+        """The fields of one plan, as :class:`pairgrasp.GraspSearch` keywords (C++ PlanOptions)."""
+        # Only the fast schedule's coarse samples keep poses for deepening (GraspSearch.add_samples).
+        return dict(poses_per_sample=self._first_poses(), max_poses_per_sample=self.max_poses_per_sample, chunk=self.chunk, step=self.step,
+                    backoff=self.backoff, top=self.top, fine_tune=self.fine_tune,
+                    fine_tune_iterations=self.fine_tune_iterations, seed=self.seed, mu=self.mu, edges=self.edges,
+                    contacts_per_link=self.contacts_per_link, max_evaluations=self.max_evaluations,
+                    rank=self.rank, robust_samples=self.robust_samples)
 
     def poses(self) -> Tuple[int, int]:
         """(poses per sample, poses per coarse sample at most) of this schedule."""
-        first = self.poses_per_sample if self.poses_per_sample is not None else (6 if self.schedule == "fast" else 3)
+        first = self._first_poses()
         return first, (max(first, self.max_poses_per_sample) if self.schedule == "fast" else first)
+
+    def _first_poses(self):
+        return self.poses_per_sample if self.poses_per_sample is not None else (6 if self.schedule == "fast" else 3)
 
 
 def _positive(name, value, allow_zero=False):

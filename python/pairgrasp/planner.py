@@ -79,29 +79,43 @@ import math
 import os
 import sys
 import time
-from dataclasses import asdict, dataclass, fields, replace
-from typing import Dict, List, Optional, Sequence
+import warnings
+from dataclasses import asdict, fields
+from typing import List, Optional, Sequence
 
 import numpy as np
 
 from . import _core
-from .checks import warn_if_open
+from .checks import warn_if_large, warn_if_open
 from .params import PlanParams, with_overrides
 from .results import Candidate, Grasp, PlanResult, _round
 from .simplify import simplify_mesh
 
-__all__ = ["PlanParams", "Grasp", "Candidate", "PlanResult", "Planner", "dof_grid"]
+__all__ = ["PlanParams", "Grasp", "Candidate", "PlanResult", "Planner", "dof_axes", "dof_grid"]
+
+# The fields the constructor uses to build the index and the checker; plan() cannot change them.
+_BUILD_FIELDS = frozenset({"edge", "d_max", "max_pairs", "max_faces", "constellation", "spacing", "depth_tolerance",
+                           "gap", "field_cell", "max_field_memory", "max_area_samples", "threads"})
 
 
-def dof_grid(lower: Sequence[float], upper: Sequence[float], step: Sequence[float]) -> List[np.ndarray]:
+def dof_axes(lower: Sequence[float], upper: Sequence[float], step: Sequence[float]) -> List[np.ndarray]:
     """Per-DOF sample values: lower, lower + step, ..., and upper (a last, shorter step when the range
-    is not a multiple of the step). A DOF with lower == upper or step 0 has one value."""
+    is not a multiple of the step). A DOF with lower == upper or step 0 has one value. The grid's
+    samples are their Cartesian product (C++ ``dof_grid``)."""
     return [np.array(v, float) for v in _core._dof_axes(np.asarray(lower, float).reshape(-1),
                                                          np.asarray(upper, float).reshape(-1),
                                                          np.asarray(step, float).reshape(-1))]
 
 
-class _Progress:
+def dof_grid(lower: Sequence[float], upper: Sequence[float], step: Sequence[float]) -> List[np.ndarray]:
+    """Deprecated name of :func:`dof_axes` (the per-DOF values, not the grid's samples as C++
+    ``dof_grid`` returns); warns (DeprecationWarning) and will be removed in the next release."""
+    warnings.warn("pairgrasp.dof_grid is renamed dof_axes (it returns per-DOF values); dof_grid will be removed",
+                  DeprecationWarning, stacklevel=2)
+    return dof_axes(lower, upper, step)
+
+
+class Progress:
     """A one-line progress bar on stderr, drawn only when stderr is a terminal (or forced)."""
 
     def __init__(self, enabled: Optional[bool]):
@@ -137,25 +151,8 @@ class _Progress:
         sys.stderr.flush()
 
 
-@dataclass
-class _Cand:
-    """An aligned pose waiting for the candidate pipeline (a deepening pose of a coarse sample)."""
-    sample: int
-    q: np.ndarray
-    pose: np.ndarray
-    quality: float
-    votes: int
-    rank: int = 0
-
-
-def _rank_key(c) -> tuple:
-    """The ranking of evaluated candidates (``pairgrasp.EvaluatedCandidate``), best last: not
-    pruned, force closure, epsilon, Q_A, votes."""
-    e = c.evaluation
-    return (not e.pruned, bool(e.force_closure), float(e.epsilon), c.quality, c.votes)
-
-
-def _as_mesh(value, name):
+def as_mesh(value, name):
+    """`value` as a :class:`pairgrasp.Mesh`: a Mesh as is, a path loaded; ValueError naming `name` else."""
     if isinstance(value, _core.Mesh):
         return value
     if isinstance(value, (str, os.PathLike)):
@@ -220,14 +217,14 @@ class Planner:
         self.params = with_overrides(PlanParams, params, overrides, "planner")
         p = self.params
         self.hand = hand if isinstance(hand, _core.Hand) else _core.load_hand(os.fspath(hand))
-        given = _as_mesh(target, "target")
+        given = as_mesh(target, "target")
         self.inputs = {"hand": self.hand.name, "hand_spec": os.fspath(hand) if not isinstance(hand, _core.Hand)
                        else self.hand.spec_path,
                        "target": os.fspath(target) if not isinstance(target, _core.Mesh) else "<mesh>",
                        "target_faces": int(len(given.faces))}
         face_paint, regions = self._paint(paint, given)
         mesh, face_paint = self._simplified(given, face_paint)
-        occ = [_as_mesh(o, "occluder") for o in occluders]
+        occ = [as_mesh(o, "occluder") for o in occluders]
         if occ:
             self.inputs["occluders"] = [os.fspath(o) if not isinstance(o, _core.Mesh) else "<mesh>" for o in occluders]
         vp = None
@@ -239,19 +236,15 @@ class Planner:
             self.inputs["support"] = {"point": _round(plane.point), "normal": _round(plane.normal)}
         if occ or plane is not None:
             self.inputs["occluder_distance"] = float(occluder_distance)
-        self.obstacles = [_as_mesh(o, "obstacle") for o in obstacles]
+        self.obstacles = [as_mesh(o, "obstacle") for o in obstacles]
         if obstacles:
             self.inputs["obstacles"] = [os.fspath(o) if not isinstance(o, _core.Mesh) else "<mesh>" for o in obstacles]
         # The parameters fixed by the index, resolved in C++ (the target's scale is checked against
         # the hand's span there before anything large is built), and the free surface at half the
         # unit-facet edge.
-        options = dict(edge=p.edge or 0.0, d_max=p.d_max or 0.0, max_pairs=int(p.max_pairs),
-                       constellation=p.constellation, spacing=p.spacing or 0.0,
-                       max_area_samples=int(p.max_area_samples),
-                       depth_tolerance=-1.0 if p.depth_tolerance is None else float(p.depth_tolerance),
-                       gap=float(p.gap), backoff=-1.0 if p.backoff is None else float(p.backoff),
-                       max_poses=max(replace(p, schedule=s).poses()[1] for s in ("grid", "fast")), threads=p.threads)
+        options = p.planner_options()
         warn_if_open(mesh, mesh.source or self.inputs["target"])
+        warn_if_large(mesh, _core.hand_span(self.hand), mesh.source or self.inputs["target"])
         try:
             self.core = _core.GraspPlanner(self.hand, mesh, face_paint, self.obstacles, regions=regions,
                                            occluders=occ, occluder_distance=float(occluder_distance),
@@ -337,102 +330,59 @@ class Planner:
 
     def plan(self, progress: Optional[bool] = None, **overrides) -> PlanResult:
         """Runs the schedule and returns the ranked grasps. ``overrides`` change plan-time fields of
-        the parameters (schedule, step, poses_per_sample, ..., not the ones the constructor used:
-        edge, d_max, max_pairs, max_faces, constellation, spacing, max_area_samples, depth_tolerance,
-        gap, backoff, threads: changing one of those is a ValueError)."""
+        the parameters (schedule, step, poses_per_sample, backoff, ..., not the ones the constructor
+        used to build the index and the checker: edge, d_max, max_pairs, max_faces, constellation,
+        spacing, max_area_samples, depth_tolerance, gap, field_cell, max_field_memory, threads:
+        changing one of those is a ValueError)."""
         p = PlanParams(**asdict(self.params))
-        fixed = {"edge", "d_max", "max_pairs", "max_faces", "constellation", "spacing", "depth_tolerance", "gap",
-                 "backoff", "max_area_samples", "threads"}
         for k, v in overrides.items():
             if k not in {f.name for f in fields(PlanParams)}:
                 raise ValueError(f"unknown planner parameter {k!r}")
-            if k in fixed and v != getattr(p, k):
+            if k in _BUILD_FIELDS and v != getattr(p, k):
                 raise ValueError(f"{k}: fixed when the Planner is built; build a new Planner to change it")
             setattr(p, k, v)
         p.validate()
-        start = time.perf_counter()  # candidates' evaluation times are measured from here
-        bar = _Progress(progress)
+        start = time.perf_counter()
+        bar = Progress(progress)
+        search = _core.GraspSearch(self.core, **p.search_options())
         timings = {"index": self.setup_time}
         counts = {"unit_facets": int(len(self.tindex.facets.points)), "stored_pairs": int(len(self.tindex.index.pairs)),
-                  "samples": 0, "rejected": 0, "aligned_samples": 0, "aligned_poses": 0, "settled": 0,
-                  "settled_aligned": 0, "evaluated": 0, "force_closure": 0, "skipped": 0, "deepened_poses": 0}
-        lo = np.asarray(self.hand.dof_lower, float)
-        hi = np.asarray(self.hand.dof_upper, float)
-        steps = self.steps(p.step)
-        axes = dof_grid(lo, hi, steps)
+                  "rejected": 0, "aligned_samples": 0, "skipped": 0}
+        scheduled_samples = [0]
+        schedule_t = [0.0]
+        axes = dof_axes(self.hand.dof_lower, self.hand.dof_upper, self.steps(p.step))
         reject = p.reject if p.reject is not None else (p.schedule == "fast")
-        first_poses, most_poses = p.poses()
-        aligner = self.aligner if most_poses <= self.aligner.max_poses else self._aligner(most_poses)
-
-        samples: List[np.ndarray] = []
-        cands: list = []  # pairgrasp.EvaluatedCandidate, in evaluation order
-        stage_t = {"schedule": 0.0, "align": 0.0, "settle": 0.0, "evaluate": 0.0}
-        pipe = _core.CandidatePipeline(
-            self.checker, edge=self.edge, backoff=self.backoff, steps=steps, center=self.center, radius=self.radius,
-            mu=p.mu, edges=p.edges, contacts_per_link=p.contacts_per_link,
-            max_evaluations=-1 if p.max_evaluations is None else p.max_evaluations,
-            hull_rank=_core.hull_rank_for(p.top, p.fine_tune, p.rank) if p.contacts_per_link else 0, threads=p.threads)
-
         best_fraction = [None]
 
         def out_of_time() -> bool:
             return p.time_limit is not None and time.perf_counter() - start >= p.time_limit
 
-        quiet = _Progress(False)
-
-        def process(new: List[_Cand]) -> list:
-            """Settles and evaluates aligned candidates in C++ (one call per chunk); returns the
-            evaluated ones."""
-            if not new:
-                return []
-            t = time.perf_counter()
-            rep = pipe.process(np.array([c.pose for c in new]), np.array([c.q for c in new]),
-                               [c.sample for c in new], [c.quality for c in new], [c.votes for c in new])
-            counts["settled"] += rep["settled"]
-            counts["settled_aligned"] += rep["settled_aligned"]
-            counts["evaluated"] += rep["evaluated"]
-            stage_t["settle"] += rep["settle_seconds"]
-            stage_t["evaluate"] += time.perf_counter() - t - rep["settle_seconds"]
-            ev = pipe.evaluated(len(cands))
-            cands.extend(ev)
-            return ev
-
-        def run_stage(index_tuples, label, extras=None):
+        def run_stage(index_tuples, label, keep_deeper=False):
+            """Aligns, settles and evaluates the grid samples at ``index_tuples`` (after early
+            rejection), a chunk at a time so that a time limit stops the search between chunks."""
             t = time.perf_counter()
             qs = [np.array([axes[d][k] for d, k in enumerate(idx)]) for idx in index_tuples]
-            counts["samples"] += len(qs)
+            scheduled_samples[0] += len(qs)
             keep = [True] * len(qs)
-            if reject:
-                bar.start("schedule", len(qs))
-                fractions = self.core.match_fractions(np.array(qs)) if qs else []
-                bar.advance(len(qs))
-                bar.finish()
+            if reject and qs:
+                fractions = self.core.match_fractions(np.array(qs))
                 if best_fraction[0] is None:  # the first stage (the whole grid, or fast's coarse grid)
                     best_fraction[0] = max(fractions, default=0.0)
                 threshold = p.min_match_fraction * best_fraction[0]
                 keep = [f >= threshold and f > 0.0 for f in fractions]
             kept = [q for q, k in zip(qs, keep) if k]
             counts["rejected"] += len(qs) - len(kept)
-            stage_t["schedule"] += time.perf_counter() - t
-            # Align, settle and evaluate a chunk of samples at a time, so that grasps come out early
-            # and a time limit stops the search between chunks.
-            done: list = []
+            schedule_t[0] += time.perf_counter() - t
             bar.start(label, len(kept))
             for b in range(0, len(kept), p.chunk):
                 if out_of_time():
                     counts["skipped"] += len(kept) - b
                     break
                 chunk = kept[b:b + p.chunk]
-                t = time.perf_counter()
-                new = self._align(chunk, samples, aligner, first_poses,
-                                  most_poses if extras is not None else first_poses, extras, quiet)
+                search.add_samples(np.array(chunk), keep_deeper)
                 counts["aligned_samples"] += len(chunk)
-                counts["aligned_poses"] += len(new)
-                stage_t["align"] += time.perf_counter() - t
-                done.extend(process(new))
                 bar.advance(len(chunk))
             bar.finish()
-            return done
 
         shape = [len(a) for a in axes]
         if p.schedule == "grid":
@@ -443,8 +393,7 @@ class Planner:
             # the last of them.
             coarse_axes = [sorted(set(range(0, n, f)) | ({n - 1} if 2 * ((n - 1) % f) > f else set())) for n in shape]
             coarse = list(itertools.product(*coarse_axes))
-            extras: List[_Cand] = []
-            run_stage(coarse, "coarse", extras)
+            run_stage(coarse, "coarse", keep_deeper=True)
             scheduled = set(coarse)
             centres: set = set()
             r = max(f // 2, 1)
@@ -452,17 +401,12 @@ class Planner:
                 # Seeds: the samples searched so far, ranked by their best candidate (the final
                 # ranking's order), that have not been a centre yet; their unsampled fine-grid
                 # neighbours are the next stage (a later round climbs from the best of the last).
-                best: Dict[int, tuple] = {}
-                for c in cands:
-                    key = _rank_key(c)
-                    if c.sample not in best or key > best[c.sample]:
-                        best[c.sample] = key
-                order = [s for s in sorted(best, key=lambda s: (best[s], -s), reverse=True) if s not in centres]
-                order = order[: p.refine]
+                order = [s for s in search.ranked_samples() if s not in centres][: p.refine]
                 centres.update(order)
+                searched = search.samples
                 fine: List[tuple] = []
                 for s in order:
-                    centre = tuple(int(np.argmin(np.abs(axes[d] - samples[s][d]))) for d in range(len(axes)))
+                    centre = tuple(int(np.argmin(np.abs(axes[d] - searched[s][d]))) for d in range(len(axes)))
                     for off in itertools.product(*[range(-r, r + 1)] * len(axes)):
                         idx = tuple(min(max(c + o, 0), n - 1) for c, o, n in zip(centre, off, shape))
                         if idx not in scheduled:
@@ -471,79 +415,42 @@ class Planner:
                 if not fine:
                     break
                 if out_of_time():
-                    counts["samples"] += len(fine)
+                    scheduled_samples[0] += len(fine)
                     counts["skipped"] += len(fine)
                     break
                 run_stage(fine, "refine")
-            # Deepening: where force closure is still rare after the refinement, the coarse samples'
-            # next-ranked poses.
-            for rank in range(first_poses, most_poses):
-                n_fc = sum(bool(c.evaluation.force_closure) for c in cands)
-                if n_fc >= p.min_force_closure_rate * max(len(cands), 1) or out_of_time():
-                    break
-                new = [c for c in extras if c.rank == rank]
-                if not new:
-                    break
-                bar.start("deepen", len(new))
-                for b in range(0, len(new), p.chunk):
-                    if out_of_time():
+            # Deepening: while force closure is rare, the coarse samples' next-ranked poses, one rank
+            # at a time.
+            rank = -1
+            while search.deepen_rank >= 0 and not out_of_time():
+                if search.deepen_rank != rank:
+                    rank = search.deepen_rank
+                    if search.force_closure >= p.min_force_closure_rate * max(search.evaluated_count, 1):
                         break
-                    part = new[b:b + p.chunk]
-                    counts["aligned_poses"] += len(part)
-                    counts["deepened_poses"] += len(part)
-                    process(part)
-                    bar.advance(len(part))
-                bar.finish()
-        timings.update(stage_t)
-
+                search.deepen(p.chunk)
+        done = search.timings
+        timings.update(schedule=schedule_t[0], align=done["align"], settle=done["settle"], evaluate=done["evaluate"])
         t = time.perf_counter()
-        grasps, robust_s = self._grasps(pipe, cands, p, start)
-        timings["fine_tune"] = time.perf_counter() - t - robust_s
-        timings["robust"] = robust_s
-        counts["force_closure"] = sum(1 for c in cands if c.evaluation.force_closure)
+        time_left = None if p.time_limit is None else p.time_limit - (t - start)
+        ranked, seconds = search.finish(time_left)
+        evaluated = search.evaluated()
+        grasps = self._grasps(evaluated, ranked)
+        timings["fine_tune"] = time.perf_counter() - t - seconds["robust"]
+        timings["robust"] = seconds["robust"]
         timings["total"] = sum(timings.values())
+        counts.update(search.counts)
+        counts["samples"] = scheduled_samples[0]
+        counts["force_closure"] = int(search.force_closure)
         records = [Candidate(sample=c.sample, alignment_quality=c.quality, votes=c.votes,
                              epsilon=float(c.evaluation.epsilon), force_closure=bool(c.evaluation.force_closure),
-                             settled=c.settled, time=c.seconds) for c in cands]
+                             settled=c.settled, time=c.seconds) for c in evaluated]
         return PlanResult(grasps=grasps, candidates=records, timings=timings, counts=counts, edge=self.edge,
                           d_max=self.d_max, constellation=self.mode, spacing=self.spacing, params=p,
                           inputs=dict(self.inputs))
 
-    def _align(self, qs, samples, aligner, n_poses: int, n_kept: int, extras, bar) -> List[_Cand]:
-        """Aligns the samples ``qs`` (appended to ``samples``); their best ``n_poses`` poses are
-        returned as candidates and the next ones, up to ``n_kept`` in all, appended to ``extras``."""
-        out: List[_Cand] = []
-        batch = 64
-        bar.start("align", len(qs))
-        for b in range(0, len(qs), batch):
-            chunk = qs[b:b + batch]
-            if aligner is self.aligner:
-                res = self.core.align(np.array(chunk))
-            else:
-                res = aligner.align_many([self.constellation(q) for q in chunk])
-            for q, poses in zip(chunk, res):
-                samples.append(q)
-                s = len(samples) - 1
-                for k, pose in enumerate(poses[:n_kept]):
-                    c = _Cand(sample=s, q=q, pose=np.array(pose.pose), quality=float(pose.quality),
-                              votes=int(pose.votes), rank=k)
-                    (out if k < n_poses else extras).append(c)
-            bar.advance(len(chunk))
-        bar.finish()
-        return out
-
-    def _aligner(self, max_poses: int):
-        """An aligner over the target index returning ``max_poses`` poses at most (the best ``k``
-        poses do not depend on ``max_poses >= k``)."""
-        return _core.Aligner(self.tindex.index, max_poses=max_poses, threads=self.params.threads)
-
-    def _grasps(self, pipe, cands, p, start):
-        """Ranks, fine-tunes and returns the grasps (CandidatePipeline.finish), with the records of
-        the candidates they came from, and the seconds of the robust ranking."""
-        time_left = None if p.time_limit is None else p.time_limit - (time.perf_counter() - start)
+    def _grasps(self, cands, ranked) -> List[Grasp]:
+        """The returned grasps as :class:`Grasp` records, with the evaluated candidates they came from."""
         grasps: List[Grasp] = []
-        ranked, seconds = pipe.finish(p.top, p.fine_tune, p.fine_tune_iterations, p.seed, time_left,
-                                                   rank=p.rank, robust_samples=p.robust_samples)
         for g in ranked:
             c, ev, r = cands[g.candidate], g.evaluation, g.robust
             joints = {k: float(v) for k, v in self.hand.joint_values(np.asarray(ev.dofs), clamp=True).items()}
@@ -557,4 +464,4 @@ class Planner:
                 force_closure_probability=None if r is None else float(r.force_closure_probability),
                 robust_epsilon=None if r is None else float(r.epsilon), load_resistance=float(g.load_resistance),
                 opposition=float(g.push.opposition), drive=float(g.push.drive)))
-        return grasps, seconds["robust"]
+        return grasps

@@ -12,10 +12,10 @@ import numpy as np
 
 __all__ = ["draw_grasp", "draw_planned", "figure7", "figure7_samples", "figure8", "classical_mds", "simulation_figure"]
 
-_FREE = (0.70, 0.74, 0.80)
-_OCCLUDED = (0.93, 0.55, 0.20)
-_HAND = (0.25, 0.35, 0.60)
-_CONTACT = (0.85, 0.10, 0.10)
+FREE_COLOR = (0.70, 0.74, 0.80)
+OCCLUDED_COLOR = (0.93, 0.55, 0.20)
+HAND_COLOR = (0.25, 0.35, 0.60)
+CONTACT_COLOR = (0.85, 0.10, 0.10)
 
 
 def _pyplot():
@@ -67,9 +67,9 @@ def draw_grasp(hand, target, free: Optional[np.ndarray], wrist_pose, dofs, path:
     tris = tv[np.asarray(target.faces, int)]
     free = np.ones(len(tris), bool) if free is None else np.asarray(free, bool)
     tn = _tri_normals(tris)
-    tcol = np.where(free[:, None], _shade(tn, _FREE), _shade(tn, _OCCLUDED))
+    tcol = np.where(free[:, None], _shade(tn, FREE_COLOR), _shade(tn, OCCLUDED_COLOR))
     htris = _hand_triangles(hand, np.asarray(wrist_pose, float), dofs)
-    hcol = _shade(_tri_normals(htris), _HAND) if len(htris) else np.zeros((0, 3))
+    hcol = _shade(_tri_normals(htris), HAND_COLOR) if len(htris) else np.zeros((0, 3))
     allv = np.concatenate([tris.reshape(-1, 3), htris.reshape(-1, 3)]) * 1000.0
     lo, hi = allv.min(axis=0), allv.max(axis=0)
     centre, half = (lo + hi) / 2.0, (hi - lo).max() / 2.0 * 1.02
@@ -93,7 +93,7 @@ def draw_grasp(hand, target, free: Optional[np.ndarray], wrist_pose, dofs, path:
                                                  linewidths=0.2, alpha=0.85))
         if contacts is not None and len(contacts):
             c = np.asarray(contacts, float) * 1000.0
-            ax.scatter(c[:, 0], c[:, 1], c[:, 2], color=_CONTACT, s=6, depthshade=False)
+            ax.scatter(c[:, 0], c[:, 1], c[:, 2], color=CONTACT_COLOR, s=6, depthshade=False)
         for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):
             setter(c - half, c + half)
         ax.set_box_aspect((1, 1, 1))
@@ -189,13 +189,13 @@ def figure7(planner, samples: Sequence[np.ndarray], path: str, max_target: int =
 def figure7_samples(planner, result, seed: int = 0):
     """DOF samples worth showing in Figure 7: the best grasp's sample, the mid-range sample, a grid
     sample the early rejection would drop (if one is found in 200 random draws) and the lower limits."""
-    from .planner import dof_grid
+    from .planner import dof_axes
 
     hand = planner.hand
     lo, hi = np.asarray(hand.dof_lower, float), np.asarray(hand.dof_upper, float)
     samples = [np.asarray(result.grasps[0].sample)] if result.grasps else []
     samples.append((lo + hi) / 2.0)
-    axes = dof_grid(lo, hi, planner.steps(result.params.step))
+    axes = dof_axes(lo, hi, planner.steps(result.params.step))
     fractions = [planner.match_fraction(q) for q in samples]
     rng = np.random.default_rng(seed)
     for _ in range(200):

@@ -70,7 +70,7 @@ from . import _core
 from .convex import DEFAULT_THRESHOLD, convex_pieces
 from .inertia import hull_mass_properties, mass_properties, solid_mass_properties
 from .params import with_overrides
-from .planner import _as_mesh
+from .planner import as_mesh
 
 __all__ = ["SimParams", "SimResult", "Simulator", "SimReport", "TrialNoise", "Trial", "trial_perturbations",
            "simulate_trials", "simulate_grasps", "verify_grasps", "import_mujoco", "load_phase"]
@@ -445,8 +445,8 @@ class Simulator:
         self.lift_direction = lift / np.linalg.norm(lift)
         p = self.params
         self.hand = hand if isinstance(hand, _core.Hand) else _core.load_hand(os.fspath(hand))
-        self.target = _as_mesh(target, "target")
-        self.obstacles = [_as_mesh(o, "obstacle") for o in obstacles]
+        self.target = as_mesh(target, "target")
+        self.obstacles = [as_mesh(o, "obstacle") for o in obstacles]
         target_pieces = convex_pieces(self.target, threshold=p.convex_threshold)
         props, self.target_mass_source = solid_mass_properties(self.target, p.density, target_pieces, mass)
         self.target_mass = props.mass
@@ -876,20 +876,50 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
             bad parameters.
         ImportError: MuJoCo is not installed.
     """
-    from .grasps_file import _load_planned, _resolve, recorded_support, write_grasps
+    from .grasps_file import load_planned, write_grasps
 
-    import_mujoco()
     path = os.fspath(path)
+    _check_top(top)
+    import_mujoco()
+    perturbations = trial_perturbations(trials, seed, noise)
+    planned = load_planned(path, hand, target)
+    rep = _simulate_planned(planned, path, top, params, progress, perturbations, seed, noise, mass, overrides)
+    out_png = tmp_png = None
+    if picture:
+        from .render import simulation_figure
+
+        out_png = os.path.join(os.path.dirname(str(path)), "simulation.png")  # beside it, as the user named it
+        tmp_png = out_png + ".part.png"
+        simulation_figure(rep.epsilons, rep.results, rep.params, tmp_png,
+                          title=f"{planned.hand.name} on "
+                                f"{os.path.basename(str(planned.grasps.inputs.get('target', 'target')))}")
+    try:
+        write_grasps(path, planned.grasps.document)
+        if tmp_png:
+            os.replace(tmp_png, out_png)
+    finally:
+        if tmp_png and os.path.exists(tmp_png):
+            os.remove(tmp_png)
+    rep.picture = out_png
+    return rep
+
+
+def _check_top(top):
     if top is not None and (isinstance(top, bool) or not isinstance(top, int) or top < 1):
         raise ValueError(f"top: expected an integer >= 1, got {top!r}")
-    perturbations = trial_perturbations(trials, seed, noise)
-    planned = _load_planned(path, hand, target)
+
+
+def _simulate_planned(planned, path, top, params, progress, perturbations, seed, noise, mass, overrides) -> SimReport:
+    """simulate_grasps() on a plan already read: records every outcome in ``planned.grasps.document``
+    (which is not written) and returns the report (no picture)."""
+    from .grasps_file import resolve_path, recorded_support
+
     gf, hand, target, scale, base = planned.grasps, planned.hand, planned.target, planned.scale, planned.base
     inputs = gf.inputs
     others = []
     for key in ("obstacles", "occluders"):
         for k, o in enumerate(inputs.get(key, []) or []):
-            others.append(_core.load_mesh(_resolve(o, base, f"{path}: inputs.{key}[{k}]"), scale=scale))
+            others.append(_core.load_mesh(resolve_path(o, base, f"{path}: inputs.{key}[{k}]"), scale=scale))
     support = recorded_support(inputs)
     if support is not None:   # the table the target stood on while the hand closed, taken away for the load
         others.append(_core.support_box(support, target, SUPPORT_MARGIN))
@@ -910,32 +940,13 @@ def simulate_grasps(path, top: Optional[int] = None, hand=None, target=None, par
                          "target_mass_source": sim.target_mass_source, "simulated": len(results),
                          "trials": len(perturbations), "seed": int(seed), "noise": asdict(noise or TrialNoise()),
                          "scene": {k: v for k, v in sim.counts.items()}}
-    out_png = None
-    tmp_png = None
-    if picture:
-        from .render import simulation_figure
-
-        out_png = os.path.join(os.path.dirname(str(path)), "simulation.png")  # beside it, as the user named it
-        tmp_png = out_png + ".part.png"
-        simulation_figure([g.epsilon for g in grasps], results, sim.params, tmp_png,
-                          title=f"{hand.name} on {os.path.basename(str(inputs.get('target', 'target')))}")
-    try:
-        write_grasps(path, doc)
-        if tmp_png:
-            os.replace(tmp_png, out_png)
-    finally:
-        if tmp_png and os.path.exists(tmp_png):
-            os.remove(tmp_png)
     return SimReport(results=results, ranks=[g.rank for g in grasps], epsilons=[g.epsilon for g in grasps],
-                     counts=sim.counts, params=sim.params, path=path, picture=out_png, trials=per_grasp,
+                     counts=sim.counts, params=sim.params, path=path, picture=None, trials=per_grasp,
                      target_mass=sim.target_mass, target_mass_source=sim.target_mass_source)
 
 
-#: How far (m) the simulated support extends beyond the target's footprint on every side, and how deep.
-SUPPORT_MARGIN = 0.15
-
-
-def verify_grasps(path, top: int, trials: int = 4, seed: int = 0, progress=None, **kwargs) -> List[int]:
+def verify_grasps(path, top: int, trials: int = 4, seed: int = 0, progress=None, document=None, hand=None,
+                  target=None, **kwargs) -> List[int]:
     """Simulation in the loop: simulates the first ``top`` grasps of a grasps.json file
     (:func:`simulate_grasps` with ``trials`` and ``seed``; ``kwargs`` go to it) and re-ranks them by
     their success rate (ties keep the planned order; the grasps after ``top`` keep theirs). Each
@@ -943,12 +954,23 @@ def verify_grasps(path, top: int, trials: int = 4, seed: int = 0, progress=None,
     ``{"top", "trials", "seed", "planned_ranks"}`` (the planned ranks in the new order). Returns
     the planned ranks in the new order.
 
+    ``document``: the plan's document not yet written (as ``plan --verify-top`` passes it): it is
+    simulated and re-ranked in place and not written; ``path`` is where it will be written (its
+    folder is where recorded paths are relative to). Without it, ``path`` is read and written back.
+
     Raises what :func:`simulate_grasps` raises.
     """
-    from .grasps_file import load_grasps, write_grasps
+    from .grasps_file import load_planned, write_grasps
 
-    rep = simulate_grasps(path, top=top, trials=trials, seed=seed, progress=progress, picture=False, **kwargs)
-    doc = load_grasps(path).document
+    path = os.fspath(path)
+    _check_top(top)
+    import_mujoco()
+    noise = kwargs.pop("noise", None)
+    perturbations = trial_perturbations(trials, seed, noise)
+    planned = load_planned(path, hand, target, document=document)
+    rep = _simulate_planned(planned, path, top, kwargs.pop("params", None), progress, perturbations, seed, noise,
+                            kwargs.pop("mass", None), kwargs)
+    doc = planned.grasps.document
     items = doc["grasps"]
     head = sorted(range(len(rep.trials)), key=lambda i: -rep.success_rates[i])   # stable: ties in planned order
     order = head + list(range(len(rep.trials), len(items)))
@@ -961,5 +983,6 @@ def verify_grasps(path, top: int, trials: int = 4, seed: int = 0, progress=None,
     doc["grasps"] = reranked
     doc["verification"] = {"top": len(head), "trials": int(trials), "seed": int(seed),
                            "planned_ranks": [g["planned_rank"] for g in reranked[:len(head)]]}
-    write_grasps(path, doc)
+    if document is None:
+        write_grasps(path, doc)
     return [g["planned_rank"] for g in reranked]

@@ -32,8 +32,8 @@ from typing import List, Optional
 import numpy as np
 
 from . import _core
-from .render import _CONTACT, _FREE, _HAND, _OCCLUDED
-from .grasps_file import _resolve
+from .render import CONTACT_COLOR, FREE_COLOR, HAND_COLOR, OCCLUDED_COLOR
+from .grasps_file import resolve_path
 
 __all__ = ["Part", "SceneGrasp", "Scene", "load_scene", "to_trimesh", "export_glb", "serve"]
 
@@ -174,11 +174,11 @@ def load_scene(path, hand=None, target=None) -> Scene:
         ValueError: a hand other than the one the grasps were planned for, or a target with another
             number of faces.
     """
-    from .grasps_file import _load_planned, recorded_free_surface, recorded_support
+    from .grasps_file import load_planned, recorded_free_surface, recorded_support
 
     path = os.fspath(path)
     given = target
-    planned = _load_planned(path, hand, target)
+    planned = load_planned(path, hand, target)
     gf, hand, scale, base = planned.grasps, planned.hand, planned.scale, planned.base
     inputs = gf.inputs
     target_name = given if given is not None else inputs.get("target")
@@ -192,7 +192,7 @@ def load_scene(path, hand=None, target=None) -> Scene:
     lo, hi = tv.min(axis=0), tv.max(axis=0)
     size = float(np.linalg.norm(hi - lo)) or 0.1
     eye = np.eye(4)
-    parts = [Part("target", tv, tf, eye, (*_FREE, 1.0))]
+    parts = [Part("target", tv, tf, eye, (*FREE_COLOR, 1.0))]
     if not free.all():
         occ_faces = tf[~free]
         tri = tv[occ_faces]
@@ -200,12 +200,12 @@ def load_scene(path, hand=None, target=None) -> Scene:
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
         tri = tri + (size / 2000.0) * n[:, None, :]
         parts.append(Part("target/occluded", tri.reshape(-1, 3), np.arange(3 * len(tri)).reshape(-1, 3), eye,
-                          (*_OCCLUDED, 1.0)))
+                          (*OCCLUDED_COLOR, 1.0)))
     for k, o in enumerate(inputs.get("obstacles") or []):
         if o == "<mesh>":
             notes.append(f"inputs.obstacles[{k}] was an in-memory mesh: not shown")
             continue
-        m = _core.load_mesh(_resolve(o, base, f"{path}: inputs.obstacles[{k}]"), scale=scale)
+        m = _core.load_mesh(resolve_path(o, base, f"{path}: inputs.obstacles[{k}]"), scale=scale)
         parts.append(Part(f"obstacle{k + 1}", np.asarray(m.vertices, float), np.asarray(m.faces, np.int64), eye,
                           _OBSTACLE))
     for k, m in enumerate(occluders):
@@ -229,12 +229,12 @@ def load_scene(path, hand=None, target=None) -> Scene:
             if m is None or len(m.faces) == 0:
                 continue
             links.append(Part(f"{node}/{link.name}", np.asarray(m.vertices, float), np.asarray(m.faces, np.int64),
-                              T, (*_HAND, 1.0), parent=node))
+                              T, (*HAND_COLOR, 1.0), parent=node))
         pts, nrm = np.asarray(g.contact_points, float), np.asarray(g.contact_normals, float)
         contacts = normals = None
         if len(pts):
             v, f = _spheres(pts, radius)
-            contacts = Part(f"{node}/contacts", v, f, eye, (*_CONTACT, 1.0))
+            contacts = Part(f"{node}/contacts", v, f, eye, (*CONTACT_COLOR, 1.0))
             v, f = _segments(pts, nrm, length, radius / 4.0)
             normals = Part(f"{node}/normals", v, f, eye, (*_NORMAL, 1.0))
         sim = d.get("simulation") if isinstance(d.get("simulation"), dict) else None

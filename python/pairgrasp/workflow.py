@@ -71,18 +71,18 @@ def finish_outdir(tmpdir: str, outdir: str):
 def write_plan(planner, result, folder: str, pictures: int, label: str, verify=None):
     """Writes what `plan` leaves in its output folder into ``folder``: grasps.json and a picture of
     each of the best ``pictures`` grasps (``label``: the target's name in their titles). ``verify``
-    (plan --verify-top): a function (path, document) that writes the document to path, simulates
-    the best grasps and re-ranks them, returning (grasps in the new order, {planned rank: success
-    rate}). Returns (number of pictures, grasps in their final order, that success map or None)."""
+    (plan --verify-top): a function (path, document) that simulates the document's best grasps and
+    re-ranks them in it, returning (grasps in the new order, {planned rank: success rate}); the file
+    is written once, at the end. Returns (number of pictures, grasps in their final order, that
+    success map or None)."""
     from . import render
-    from .grasps_file import load_grasps, write_grasps
+    from .grasps_file import write_grasps
 
     doc = result.to_dict()
     path = os.path.join(folder, "grasps.json")
     grasps, held = result.grasps, None
     if verify is not None:
         grasps, held = verify(path, doc)
-        doc = load_grasps(path).document
     names = []
     for rank, g in enumerate(grasps[:pictures], start=1):
         name = f"grasp_{rank:02d}.png"

@@ -133,3 +133,61 @@ def test_correspondence_cap_thins_and_is_reported(aligned):
     cap = free.correspondences // 10
     _, st = pg.Aligner(index, max_correspondences=cap).align(c.points, c.normals, return_stats=True)
     assert st.correspondences == free.correspondences and st.correspondences_used <= cap and st.saturated
+
+
+# ----------------------------------------------------------------------------- distance-field budget
+
+BARRETT = MODELS / "barrett" / "barrett.json"
+
+
+def _box(tmp_path, size):
+    trimesh = pytest.importorskip("trimesh")
+    path = tmp_path / "large_box.stl"
+    trimesh.creation.box(size).export(path)
+    return path
+
+
+def test_field_estimate_bounds_the_built_fields_from_above():
+    """The estimate is of the build's peak (temporary node ids included): at least the bytes the built
+    fields hold, and within a small factor of them, on the bundled targets at two cells."""
+    hand = pg.load_hand(str(BARRETT))
+    for name in ("box", "mug", "flask"):
+        mesh = pg.load_mesh(str(MODELS / "targets" / f"{name}.stl"))
+        for cell in (0.001, 0.002):
+            built = pg.GraspChecker(hand, mesh, field_cell=cell).distance_field_bytes
+            estimate = pg.estimate_field_bytes(mesh, field_cell=cell)
+            assert built <= estimate <= 8 * built, (name, cell, built, estimate)
+
+
+def test_fields_over_the_budget_are_refused_naming_the_budget(tmp_path):
+    # A 1.5 m box at a 0.5 mm cell: its surface (6.1 m^2) alone needs 6.1 / (2 mm)^2 bricks of 125 nodes
+    # in a shell about two bricks thick, over 2 GB of floats: far over the default budget.
+    path = _box(tmp_path, (1.5, 0.8, 0.8))
+    with pytest.warns(pg.InputWarning, match="times the hand's span"):  # the early word, then the refusal
+        with pytest.raises(ValueError, match=r"over the budget of 2 GB \(max_field_memory"):
+            pg.Planner(str(BARRETT), str(path), edge=0.02, field_cell=0.0005)
+    with pytest.warns(pg.InputWarning), pytest.raises(ValueError, match=r"over the budget of 0.001 GB"):
+        pg.Planner(str(BARRETT), str(path), edge=0.02, max_field_memory=0.001)
+
+
+def test_a_target_far_larger_than_the_hand_is_warned_about_before_anything_is_built(tmp_path):
+    path = _box(tmp_path, (1.5, 0.8, 0.8))
+    span = pg.hand_span(pg.load_hand(str(BARRETT)))
+    assert 0.15 < span < 0.25  # the Barrett hand: fingertips up to ~0.2 m apart
+    import warnings
+    with warnings.catch_warnings():
+        # As an error, the warning stops the constructor where it is given: before the index and the
+        # fields, which take tens of seconds for this target.
+        warnings.simplefilter("error", pg.InputWarning)
+        with pytest.raises(pg.InputWarning, match=r"1.5 m across, \d+ times the hand's span"):
+            pg.Planner(str(BARRETT), str(path))
+
+
+def test_field_cell_follows_the_edge_and_can_be_set():
+    hand = pg.load_hand(str(BARRETT))
+    mesh = pg.load_mesh(str(FLASK))
+    assert pg.resolve_planner(hand, mesh, edge=0.005).field_cell == pytest.approx(0.001)
+    assert pg.resolve_planner(hand, mesh, edge=0.008).field_cell == pytest.approx(0.0016)
+    assert pg.resolve_planner(hand, mesh, edge=0.008, field_cell=0.002).field_cell == 0.002
+    with pytest.raises(ValueError, match="field_cell"):
+        pg.resolve_planner(hand, mesh, field_cell=0.0)

@@ -32,7 +32,7 @@ def grid_plan():
 def test_cpp_plan_samples_equals_the_python_planner(grid_plan):
     planner, result = grid_plan
     lo, hi = np.asarray(planner.hand.dof_lower), np.asarray(planner.hand.dof_upper)
-    axes = pg.dof_grid(lo, hi, planner.steps(0.5))
+    axes = pg.dof_axes(lo, hi, planner.steps(0.5))
     samples = np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(axes), -1).T  # last DOF fastest
     grasps, candidates, counts, _ = pg.plan_samples(planner.core, samples, step=0.5, top=5, seed=0,
                                                   rank="robust")

@@ -20,18 +20,21 @@ BOX_PAINT = MODELS / "targets" / "box.paint.json"
 
 # ----------------------------------------------------------------------------- DOF grid
 
-def test_dof_grid_values():
-    axes = pg.dof_grid([0.0, 0.0, 1.0], [1.0, 0.5, 1.0], [0.25, 0.2, 0.1])
+def test_dof_axes_values():
+    axes = pg.dof_axes([0.0, 0.0, 1.0], [1.0, 0.5, 1.0], [0.25, 0.2, 0.1])
     np.testing.assert_allclose(axes[0], [0.0, 0.25, 0.5, 0.75, 1.0])
     np.testing.assert_allclose(axes[1], [0.0, 0.2, 0.4, 0.5])  # last step shorter, upper limit kept
     np.testing.assert_allclose(axes[2], [1.0])  # a fixed DOF has one value
+    with pytest.warns(DeprecationWarning, match="dof_axes"):  # the old name, kept for a release
+        old = pg.dof_grid([0.0, 0.0, 1.0], [1.0, 0.5, 1.0], [0.25, 0.2, 0.1])
+    assert all(np.array_equal(a, b) for a, b in zip(old, axes)) and len(old) == len(axes)
 
 
 def test_grid_schedule_counts_every_sample():
     # The paper's grid: the Barrett hand at 0.25 rad has ceil(pi/0.25)+1 spread values and
     # ceil(2.44/0.25)+1 values per finger.
     hand = pg.load_hand(str(BARRETT))
-    axes = pg.dof_grid(hand.dof_lower, hand.dof_upper, [0.25] * 4)
+    axes = pg.dof_axes(hand.dof_lower, hand.dof_upper, [0.25] * 4)
     n_spread = math.ceil(math.pi / 0.25) + 1
     n_flex = math.ceil(2.44 / 0.25) + 1
     assert [len(a) for a in axes] == [n_spread, n_flex, n_flex, n_flex]
@@ -154,7 +157,7 @@ def test_fast_refine_rounds_climb_from_the_last_round(jaw_planner):
     round appends samples (the neighbours of the best samples not yet a centre) and keeps every
     earlier candidate, so the best candidate's epsilon never falls."""
     hand = jaw_planner.hand
-    n = len(pg.dof_grid(hand.dof_lower, hand.dof_upper, hand.dof_step)[0])
+    n = len(pg.dof_axes(hand.dof_lower, hand.dof_upper, hand.dof_step)[0])
     runs = [jaw_planner.plan(progress=False, fine_tune=0, refine_rounds=k, min_force_closure_rate=0.0)
             for k in range(4)]
     assert runs[0].counts["samples"] == len(_coarse_indices(n))
@@ -181,14 +184,14 @@ def test_schedule_poses_per_sample():
 
 
 def test_plan_time_poses_per_sample_above_the_constructors_is_honoured(jaw_planner):
-    """The planner's aligner was built for at most 12 poses per sample; asking plan() for 20 must
-    give up to 20 (what an aligner of its own returns), not silently 12."""
-    assert jaw_planner.aligner.max_poses == 12
+    """The planner's aligner returns at most 10 poses per sample by default; asking plan() for 20
+    must give up to 20 (what an aligner of its own returns), not silently 10."""
+    assert jaw_planner.aligner.max_poses == 10
     r = jaw_planner.plan(schedule="grid", poses_per_sample=20, fine_tune=0, progress=False)
     hand = jaw_planner.hand
-    qs = [np.array([v]) for v in pg.dof_grid(hand.dof_lower, hand.dof_upper, hand.dof_step)[0]]
+    qs = [np.array([v]) for v in pg.dof_axes(hand.dof_lower, hand.dof_upper, hand.dof_step)[0]]
     expect = _aligned_pose_counts(jaw_planner, qs, 20)
-    assert max(expect) > 12
+    assert max(expect) > 10
     assert r.counts["aligned_poses"] == sum(expect)
 
 
@@ -200,7 +203,7 @@ def test_deepening_adds_the_coarse_samples_next_poses(jaw_planner):
     none = jaw_planner.plan(min_force_closure_rate=0.0, **kw)
     assert 0 < sum(c.force_closure for c in deep.candidates) < len(deep.candidates)
     hand = jaw_planner.hand
-    axis = pg.dof_grid(hand.dof_lower, hand.dof_upper, hand.dof_step)[0]
+    axis = pg.dof_axes(hand.dof_lower, hand.dof_upper, hand.dof_step)[0]
     coarse = [np.array([axis[k]]) for k in _coarse_indices(len(axis))]
     counts = _aligned_pose_counts(jaw_planner, coarse, 12)
     assert deep.counts["rejected"] == 0 and deep.counts["aligned_samples"] == len(coarse)
@@ -224,7 +227,7 @@ def test_barrett_coarse_grid():
 
 def test_grid_schedule_runs_every_sample(jaw_planner):
     r = jaw_planner.plan(schedule="grid", progress=False, fine_tune=0)
-    n = len(pg.dof_grid(jaw_planner.hand.dof_lower, jaw_planner.hand.dof_upper, jaw_planner.hand.dof_step)[0])
+    n = len(pg.dof_axes(jaw_planner.hand.dof_lower, jaw_planner.hand.dof_upper, jaw_planner.hand.dof_step)[0])
     assert r.counts["samples"] == n and r.counts["rejected"] == 0
 
 
@@ -282,14 +285,45 @@ def test_match_fraction_equals_brute_force(jaw_planner):
 
 @pytest.mark.parametrize("field, value", [
     ("schedule", "random"), ("step", -0.1), ("step", float("nan")), ("top", 0), ("min_match_fraction", 1.5),
-    ("constellation", "hull"), ("poses_per_sample", 0), ("contacts_per_link", 0), ("edge", 0.0),
+    ("constellation", "hull"), ("poses_per_sample", 0), ("contacts_per_link", -1), ("edge", 0.0),
     ("chunk", 0), ("time_limit", 0.0), ("time_limit", -1.0), ("refine_rounds", -1),
     ("min_force_closure_rate", -0.1), ("min_force_closure_rate", True), ("max_poses_per_sample", 0),
+    ("rank", "best"), ("field_cell", -0.001), ("max_field_memory", 0.0), ("max_pairs", 0), ("seed", -1),
+    ("threads", -2), ("reject", "yes"), ("max_faces", 3), ("mu", float("nan")), ("depth_tolerance", -0.001),
 ])
 def test_bad_parameters_name_the_field(field, value):
     p = dataclasses.replace(pg.PlanParams(), **{field: value})
     with pytest.raises(ValueError, match=field):
         p.validate()
+
+
+# The C++ options' own checks, as Python reaches them: one ValueError naming the field (the same
+# message tests/cpp/test_options.cpp checks from C++).
+@pytest.mark.parametrize("field, value", [
+    ("edge", 0.0), ("edge", float("nan")), ("d_max", -1.0), ("spacing", float("inf")), ("depth_tolerance", -0.001),
+    ("gap", float("nan")), ("backoff", -0.01), ("field_cell", 0.0), ("max_pairs", 0), ("max_field_bytes", 0.0),
+    ("max_field_bytes", float("inf")), ("max_area_samples", 2), ("threads", -1), ("threads", 2**40),
+    ("edge", "5 mm"), ("max_area_samples", True),
+])
+def test_bad_core_planner_options_name_the_field(field, value):
+    hand, mesh = pg.load_hand(str(JAW)), pg.load_mesh(str(BOX))
+    with pytest.raises(ValueError, match=f"^{field}: "):
+        pg.GraspPlanner(hand, mesh, **{field: value})
+    with pytest.raises(ValueError, match=f"^{field}: "):
+        pg.resolve_planner(hand, mesh, **{field: value})
+
+
+@pytest.mark.parametrize("field, value", [
+    ("poses_per_sample", 0), ("max_poses_per_sample", 0), ("chunk", 0), ("step", 0.0), ("step", float("nan")),
+    ("backoff", -1.0), ("top", 0), ("fine_tune", -1), ("fine_tune_iterations", -1), ("mu", -0.5), ("mu", "high"),
+    ("edges", 2), ("contacts_per_link", -1), ("max_evaluations", 0), ("hull_rank", -1), ("robust_samples", 0),
+    ("seed", -1), ("seed", 1.5), ("top", 2**40),
+])
+def test_bad_search_options_name_the_field(jaw_planner, field, value):
+    with pytest.raises(ValueError, match=f"^{field}: "):
+        pg.GraspSearch(jaw_planner.core, **{field: value})
+    with pytest.raises(ValueError, match="unknown plan option 'topp'"):
+        pg.GraspSearch(jaw_planner.core, topp=3)
 
 
 def test_bad_planner_inputs():
@@ -306,15 +340,30 @@ def test_bad_planner_inputs():
 
 @pytest.mark.parametrize("field,value", [
     ("edge", 0.002), ("d_max", 0.3), ("max_pairs", 1000), ("max_faces", 10), ("constellation", "area"),
-    ("spacing", 0.01), ("max_area_samples", 5), ("depth_tolerance", 0.0001), ("gap", 0.002),
-    ("backoff", 0.01), ("threads", 1),
+    ("spacing", 0.01), ("max_area_samples", 5), ("depth_tolerance", 0.0001), ("gap", 0.002), ("threads", 1),
 ])
 def test_plan_time_fields_cannot_change_what_the_constructor_built(jaw_planner, field, value):
-    # What the constructor resolved (the index, the checker, the settling back-off) is refused at
-    # plan time rather than recorded in the result's parameters and silently not used.
+    # What the constructor resolved (the index, the checker) is refused at plan time rather than
+    # recorded in the result's parameters and silently not used.
     assert getattr(jaw_planner.params, field) != value
     with pytest.raises(ValueError, match=f"{field}: fixed when the Planner is built"):
         jaw_planner.plan(**{field: value})
+
+
+def test_backoff_is_a_plan_time_field(jaw_planner):
+    """``backoff`` given to plan() is the one the settling uses: the same grasps and counts as a
+    Planner built with it, and other counts than the default's (a 2 mm back-off clears fewer poses
+    than half the hand's reach)."""
+    def key(r):
+        return ([(g.epsilon, g.wrist_pose.round(12).tolist()) for g in r.grasps],
+                {k: v for k, v in r.counts.items()}, r.params.backoff)
+    at_plan = jaw_planner.plan(schedule="grid", backoff=0.002, progress=False)
+    built = pg.Planner(str(JAW), str(BOX), paint=str(BOX_PAINT), params=jaw_planner.params,
+                       backoff=0.002).plan(schedule="grid", progress=False)
+    assert key(at_plan) == key(built)
+    default = jaw_planner.plan(schedule="grid", progress=False)
+    assert default.params.backoff is None and at_plan.params.backoff == 0.002
+    assert default.counts["settled"] > at_plan.counts["settled"]
 
 
 # ----------------------------------------------------------------------------- contact reduction
@@ -374,7 +423,7 @@ def test_returned_ranking_equals_scoring_every_candidate_fully(target):
     included)."""
     hand = pg.load_hand(str(MODELS / "barrett" / "barrett.json"))
     core = pg.GraspPlanner(hand, pg.load_mesh(str(MODELS / "targets" / f"{target}.stl")))
-    axes = pg.dof_grid(hand.dof_lower, hand.dof_upper, [1.0] * len(hand.dof_names))
+    axes = pg.dof_axes(hand.dof_lower, hand.dof_upper, [1.0] * len(hand.dof_names))
     samples = np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(axes), -1).T
     for rank in ("epsilon", "load"):
         runs = [pg.plan_samples(core, samples, top=5, fine_tune=0, seed=1, hull_rank=h, rank=rank)[0]

@@ -459,12 +459,22 @@ def test_perturbed_trials_and_verification_rerank_by_outcome(tmp_path):
 
 
 @pytest.mark.slow
-def test_plan_verify_top_simulates_and_reranks(tmp_path):
+def test_plan_verify_top_simulates_and_reranks(tmp_path, monkeypatch, capsys):
+    from pairgrasp import cli, grasps_file
+
+    io = {"write": 0, "read": 0}   # the plan is simulated in memory: grasps.json is written once, never read
+    write, read = grasps_file.write_grasps, grasps_file.load_grasps
+    monkeypatch.setattr(grasps_file, "write_grasps", lambda *a: (io.__setitem__("write", io["write"] + 1), write(*a))[1])
+    monkeypatch.setattr(grasps_file, "load_grasps", lambda *a, **k: (io.__setitem__("read", io["read"] + 1),
+                                                                    read(*a, **k))[1])
     out = tmp_path / "plan"
-    r = run_cli("plan", "--hand", JAW, "--target", BOX, "--paint", MODELS / "targets" / "box.paint.json", "--edge",
-                "0.008", "--top", "3", "--seed", "1", "--pictures", "1", "--verify-top", "2", "--trials", "2",
-                "--quiet", "-o", out)
-    assert r.returncode == 0, r.stderr
+    code = cli.main([str(a) for a in (
+        "plan", "--hand", JAW, "--target", BOX, "--paint", MODELS / "targets" / "box.paint.json", "--edge",
+        "0.008", "--top", "3", "--seed", "1", "--pictures", "1", "--verify-top", "2", "--trials", "2", "--quiet",
+        "-o", out)])
+    r = capsys.readouterr()
+    assert code == 0, r.err
+    assert io == {"write": 1, "read": 0}
     doc = json.loads((out / "grasps.json").read_text())
     g = doc["grasps"]
     assert [x["rank"] for x in g] == list(range(1, len(g) + 1))
@@ -474,4 +484,4 @@ def test_plan_verify_top_simulates_and_reranks(tmp_path):
     assert rates == sorted(rates, reverse=True) and all(len(x["simulation"]["trials"]) == 2 for x in g[:2])
     assert all("simulation" not in x for x in g[2:])
     assert doc["inputs"]["hand_spec"] == str(JAW) and doc["pictures"] == ["grasp_01.png"]
-    assert "held" in r.stdout.splitlines()[1]
+    assert "held" in r.out.splitlines()[1]
