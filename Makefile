@@ -58,8 +58,9 @@ pytest-slow: install
 test: ctest pytest
 
 # Everything CI checks (.ci/run): `make test`, the slow tests against the installed package, the
-# C++ tests and the Python tests but the slow ones against an ASan + UBSan build, then bounded fuzzing.
-check: test pytest-slow asan fuzz
+# C++ tests and the Python tests but the slow ones against an ASan + UBSan build, bounded fuzzing,
+# then the concurrency tests under ThreadSanitizer.
+check: test pytest-slow asan fuzz tsan
 
 # ASan + UBSan: the library, its C++ tests and the Python extension in $(ASAN_BUILD).
 $(ASAN_BUILD)/CMakeCache.txt:
@@ -90,7 +91,8 @@ fuzz: deps install $(FUZZ_BUILD)/CMakeCache.txt
 	cmake --build $(FUZZ_BUILD) -j $(JOBS)
 	bash scripts/run_fuzz.sh $(FUZZ_BUILD) $(FUZZ_TIME) $(PYTHON)
 
-# ThreadSanitizer, run by hand (not part of `test`): the threaded C++ paths.
+# ThreadSanitizer (part of `check`, not of `test`): the concurrency tests, whose shared-planner search
+# runs the whole pipeline (align, settle, evaluate, fine-tune, robust scoring) from several threads.
 $(TSAN_BUILD)/CMakeCache.txt:
 	cmake -S . -B $(TSAN_BUILD) -G "$(GENERATOR)" $(SAN_CONFIG) -DPAIRGRASP_TSAN=ON -DPAIRGRASP_BUILD_TESTS=ON
 
