@@ -34,6 +34,7 @@ struct Args {
   std::string hand, target, paint, out, support;  // support: "", "auto" or a height (m)
   std::vector<std::string> obstacles, occluders;
   double step = 0.0;  // 0: the hand's steps
+  double field_cell = 0.0;  // 0: derived (the edge / 5)
   int top = 10;
   unsigned long seed = 0;
   int threads = 0;
@@ -43,7 +44,7 @@ struct Args {
 [[noreturn]] void usage(const std::string& why) {
   std::fprintf(stderr,
                "plan_grasps: %s\nusage: plan_grasps --hand SPEC --target MESH [--paint FILE] [--support auto|Z] "
-               "[--obstacle MESH]... [--occluder MESH]... [--step RAD] [--top K] [--seed S] "
+               "[--obstacle MESH]... [--occluder MESH]... [--step RAD] [--field-cell M] [--top K] [--seed S] "
                "[--rank enclosure|epsilon|load|robust] [--threads N] -o FILE\n",
                why.c_str());
   std::exit(2);
@@ -70,6 +71,7 @@ Args parse(int argc, char** argv) {
     else if (f == "--occluder") a.occluders.push_back(v);
     else if (f == "-o" || f == "--out") a.out = v;
     else if (f == "--step") a.step = number(f, v);
+    else if (f == "--field-cell") a.field_cell = number(f, v);
     else if (f == "--top") a.top = static_cast<int>(number(f, v));
     else if (f == "--seed") a.seed = static_cast<unsigned long>(number(f, v));
     else if (f == "--threads") a.threads = static_cast<int>(number(f, v));
@@ -82,7 +84,8 @@ Args parse(int argc, char** argv) {
     } else usage("unknown option " + f);
   }
   if (a.hand.empty() || a.target.empty() || a.out.empty()) usage("--hand, --target and -o are required");
-  if (a.step < 0.0 || a.top < 1 || a.threads < 0) usage("--step must be >= 0, --top >= 1, --threads >= 0");
+  if (a.step < 0.0 || a.field_cell < 0.0 || a.top < 1 || a.threads < 0)
+    usage("--step and --field-cell must be >= 0, --top >= 1, --threads >= 0");
   return a;
 }
 
@@ -142,6 +145,7 @@ int main(int argc, char** argv) {
     }
     pg::PlannerOptions po;
     po.threads = args.threads;
+    if (args.field_cell > 0.0) po.field_cell = args.field_cell;
     const pg::GraspPlanner planner(hand, target, scene, po);
     const std::vector<Eigen::VectorXd> samples =
         pg::dof_grid(hand.dof_lower(), hand.dof_upper(), planner.steps(args.step));
