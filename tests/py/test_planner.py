@@ -427,7 +427,7 @@ def test_returned_ranking_equals_scoring_every_candidate_fully(target):
     samples = np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(axes), -1).T
     for rank in ("epsilon", "load"):
         runs = [pg.plan_samples(core, samples, top=5, fine_tune=0, seed=1, hull_rank=h, rank=rank)[0]
-                for h in (-1, 0)]
+                for h in (None, 0)]
         assert len(runs[0]) == len(runs[1]) > 0, rank
         for a, b in zip(*runs):
             ea, eb = a.evaluation, b.evaluation
