@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -98,7 +99,7 @@ double hand_d_max() {
 }
 
 struct Target {
-  std::shared_ptr<const PairIndex> index;
+  std::optional<PairIndex> index;
   double edge = 0;
   long facets = 0;
 };
@@ -117,7 +118,7 @@ const Target& target(const std::string& name) {
     Target t;
     t.edge = ti.facets.edge;
     t.facets = static_cast<long>(ti.facets.points.rows());
-    t.index = std::make_shared<const PairIndex>(std::move(ti.index));
+    t.index.emplace(std::move(ti.index));
     it = cache.emplace(name, std::move(t)).first;
   }
   return it->second;
@@ -140,7 +141,7 @@ void BM_Align(benchmark::State& state, const std::string& name, int mode, bool p
   AlignerOptions o;
   o.threads = 1;
   o.prefilter = prefilter;
-  const Aligner aligner(t.index, o);
+  const Aligner aligner(*t.index, o);
   const auto& cs = constellations(mode);
   std::size_t k = 0;
   double corr = 0, solved = 0, voted = 0, poses = 0, n = 0;
@@ -176,7 +177,7 @@ void BM_Align(benchmark::State& state, const std::string& name, int mode, bool p
 
 void BM_AlignMany(benchmark::State& state, const std::string& name, int mode) {
   const Target& t = target(name);
-  const Aligner aligner(t.index);  // all cores
+  const Aligner aligner(*t.index);  // all cores
   const auto& cs = constellations(mode);
   for (auto _ : state) benchmark::DoNotOptimize(aligner.align_many(cs));
   state.SetItemsProcessed(state.iterations() * static_cast<long>(cs.size()));

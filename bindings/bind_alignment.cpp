@@ -271,7 +271,7 @@ correspondence (same results, slower): it exists only to measure the pre-filter'
              o.threads = threads;
              o.prefilter = prefilter;
              // The PairIndex is a handle to shared, immutable data: the copy is O(1).
-             return Aligner(std::make_shared<const PairIndex>(index), o);
+             return Aligner(index, o);
            }),
            "index"_a, "tolerance"_a = pyb::none(), "angle_tolerance"_a = pyb::none(),
            "position_tolerance"_a = pyb::none(), "collinear_tolerance"_a = pyb::none(),

@@ -40,6 +40,19 @@ int count_arg(const pyb::object& v, const char* name, int low) {
   return v.cast<int>();
 }
 
+// A DeprecationWarning for a renamed Python name (raises if warnings are errors).
+void deprecated(const std::string& old_name, const std::string& new_name) {
+  const std::string message = old_name + " is deprecated: use " + new_name + " (the old name goes in the next release)";
+  if (PyErr_WarnEx(PyExc_DeprecationWarning, message.c_str(), 1) != 0) throw pyb::error_already_set();
+}
+
+// The pool of every ranking but epsilon: rank_pool, or the deprecated robust_pool keyword.
+int rank_pool_arg(int rank_pool, const pyb::object& robust_pool) {
+  if (robust_pool.is_none()) return rank_pool;
+  deprecated("robust_pool", "rank_pool");
+  return integer(robust_pool, "robust_pool");
+}
+
 Eigen::VectorXd dofs_arg(const pyb::object& v, const Hand& hand) {
   Eigen::VectorXd q = vector_from(v, "dofs");
   if (q.size() != static_cast<Eigen::Index>(hand.dofs().size()))
@@ -237,8 +250,9 @@ void bind_planning(pyb::module_& m) {
         pyb::gil_scoped_release release;
         return evaluate_grasp(checker, w, q, o);
       },
-      "checker"_a, "wrist_pose"_a, "dofs"_a, "center"_a = pyb::none(), "radius"_a = pyb::none(), "mu"_a = 0.5,
-      "edges"_a = 8, "close"_a = true, "soft"_a = false, "torsion"_a = pyb::none(), "contacts_per_link"_a = pyb::none(),
+      "checker"_a, "wrist_pose"_a, "dofs"_a, "center"_a = pyb::none(), "radius"_a = pyb::none(), "mu"_a = ContactModel().mu,
+      "edges"_a = ContactModel().edges, "close"_a = true, "soft"_a = ContactModel().soft,
+      "torsion"_a = pyb::none(), "contacts_per_link"_a = pyb::none(),
       kEvaluateDoc);
 
   m.def(
@@ -274,7 +288,8 @@ void bind_planning(pyb::module_& m) {
       },
       "checker"_a, "wrist_pose"_a, "dofs"_a, "step"_a = pyb::none(), "facet_size"_a = pyb::none(),
       "iterations"_a = 30, "seed"_a = 0, "angle_deg"_a = 3.0, "translation"_a = pyb::none(), "center"_a = pyb::none(),
-      "radius"_a = pyb::none(), "mu"_a = 0.5, "edges"_a = 8, "soft"_a = false, "torsion"_a = pyb::none(),
+      "radius"_a = pyb::none(), "mu"_a = ContactModel().mu, "edges"_a = ContactModel().edges,
+      "soft"_a = ContactModel().soft, "torsion"_a = pyb::none(),
       "contacts_per_link"_a = pyb::none(), "threads"_a = 1, kFineTuneDoc);
 
   pyb::class_<RobustQuality>(m, "RobustQuality", "Force closure and epsilon under perturbations (robust_quality).")
@@ -316,7 +331,7 @@ void bind_planning(pyb::module_& m) {
       "checker"_a, "wrist_pose"_a, "dofs"_a, "samples"_a = RobustOptions().samples,
       "translation_sigma"_a = RobustOptions().translation_sigma, "rotation_sigma_deg"_a = 1.0,
       "friction_spread"_a = RobustOptions().friction_spread, "quantile"_a = RobustOptions().quantile, "seed"_a = 0,
-      "center"_a = pyb::none(), "radius"_a = pyb::none(), "mu"_a = 0.5, "edges"_a = 8,
+      "center"_a = pyb::none(), "radius"_a = pyb::none(), "mu"_a = ContactModel().mu, "edges"_a = ContactModel().edges,
       "contacts_per_link"_a = pyb::none(), "threads"_a = 1,
       "How a grasp's force closure and epsilon hold up under execution and model error: the grasp (wrist_pose, and "
       "dofs: the DOF values before closing) is closed and scored again at `samples` perturbations, each the wrist "
@@ -360,13 +375,47 @@ void bind_planning(pyb::module_& m) {
       "The default torque origin and scale of epsilon for a target mesh: (its centre of mass (m), the largest "
       "distance (m) of its vertices from it).");
 
+  pyb::class_<Candidate>(m, "AlignedCandidate", "An aligned candidate (C++ Candidate), the input of CandidatePipeline.process.")
+      .def(pyb::init([](const pyb::object& pose, const pyb::object& dofs, int sample_index, double alignment_quality,
+                        int votes) {
+             Candidate c;
+             c.pose = pose_from(pose, "pose");
+             c.dofs = vector_from(dofs, "dofs");
+             if (!c.dofs.allFinite()) throw std::invalid_argument("dofs: expected finite values");
+             if (sample_index < 0)
+               throw std::invalid_argument("sample_index: expected an integer >= 0, got " + std::to_string(sample_index));
+             if (!std::isfinite(alignment_quality))
+               throw std::invalid_argument("alignment_quality: expected a finite value");
+             c.sample_index = sample_index;
+             c.alignment_quality = alignment_quality;
+             c.votes = votes;
+             return c;
+           }),
+           "pose"_a, "dofs"_a, "sample_index"_a = 0, "alignment_quality"_a = 0.0, "votes"_a = 0,
+           "pose: (4,4) aligned wrist pose (target frame, metres); dofs: (D,) DOF sample (radians or metres).")
+      .def_readonly("sample_index", &Candidate::sample_index, "Index of the DOF sample it came from.")
+      .def_property_readonly("pose", [](const Candidate& c) { return pose_array(c.pose); }, "(4,4) aligned wrist pose.")
+      .def_property_readonly("dofs", [](const Candidate& c) { return Eigen::VectorXd(c.dofs); }, "(D,) the DOF sample.")
+      .def_readonly("alignment_quality", &Candidate::alignment_quality, "Q_A of its alignment (paper eq. 8).")
+      .def_readonly("votes", &Candidate::votes, "Rotation votes of the alignment.");
+
   pyb::class_<EvaluatedCandidate>(m, "EvaluatedCandidate", "A candidate settled and evaluated by CandidatePipeline.")
-      .def_property_readonly("sample", [](const EvaluatedCandidate& c) { return c.candidate.sample; })
+      .def_property_readonly("sample_index", [](const EvaluatedCandidate& c) { return c.candidate.sample_index; },
+                             "Index of the DOF sample it came from.")
+      .def_property_readonly("sample", [](const EvaluatedCandidate& c) {
+            deprecated("EvaluatedCandidate.sample", "sample_index");
+            return c.candidate.sample_index;
+          }, "Deprecated name of sample_index.")
       .def_property_readonly("pose", [](const EvaluatedCandidate& c) { return pose_array(c.candidate.pose); },
                              "(4,4) aligned wrist pose.")
       .def_property_readonly("dofs", [](const EvaluatedCandidate& c) { return Eigen::VectorXd(c.candidate.dofs); },
                              "(D,) the DOF sample.")
-      .def_property_readonly("quality", [](const EvaluatedCandidate& c) { return c.candidate.quality; }, "Q_A.")
+      .def_property_readonly("alignment_quality", [](const EvaluatedCandidate& c) { return c.candidate.alignment_quality; },
+                             "Q_A of its alignment (paper eq. 8).")
+      .def_property_readonly("quality", [](const EvaluatedCandidate& c) {
+            deprecated("EvaluatedCandidate.quality", "alignment_quality");
+            return c.candidate.alignment_quality;
+          }, "Deprecated name of alignment_quality.")
       .def_property_readonly("votes", [](const EvaluatedCandidate& c) { return c.candidate.votes; })
       .def_property_readonly("settled", [](const EvaluatedCandidate& c) { return to_string(c.settled); },
                              "'aligned' or 'adjusted'.")
@@ -411,46 +460,58 @@ void bind_planning(pyb::module_& m) {
              return std::make_unique<CandidatePipeline>(checker, o);
            }),
            "checker"_a, "edge"_a, "backoff"_a, "steps"_a = pyb::none(), "center"_a = pyb::none(),
-           "radius"_a = pyb::none(), "mu"_a = 0.5, "edges"_a = 8, "contacts_per_link"_a = pyb::none(),
+           "radius"_a = pyb::none(), "mu"_a = ContactModel().mu, "edges"_a = ContactModel().edges,
+           "contacts_per_link"_a = pyb::none(),
            "max_evaluations"_a = -1, "hull_rank"_a = 0, "threads"_a = 0, pyb::keep_alive<1, 2>())
       .def(
           "process",
-          [](CandidatePipeline& p, const pyb::object& poses, const pyb::object& dofs, const pyb::object& samples,
-             const pyb::object& qualities, const pyb::object& votes) {
-            const DoubleArray P = as_double_array(poses, "poses");
-            const DoubleArray Q = as_double_array(dofs, "dofs");
-            const Eigen::VectorXd S = vector_from(samples, "samples"), A = vector_from(qualities, "qualities"),
-                                  V = vector_from(votes, "votes");
-            const pyb::ssize_t K = P.ndim() == 3 ? P.shape(0) : -1;
-            if (K < 0 || P.shape(1) != 4 || P.shape(2) != 4)
-              throw std::invalid_argument("poses: expected a (K, 4, 4) array, got shape " + shape_of(P));
-            const long D = static_cast<long>(p.options().steps.size());
-            if (Q.ndim() != 2 || Q.shape(0) != K || Q.shape(1) != D)
-              throw std::invalid_argument("dofs: expected a (" + std::to_string(K) + ", " + std::to_string(D) +
-                                          ") array, got shape " + shape_of(Q));
-            if (S.size() != K || A.size() != K || V.size() != K)
-              throw std::invalid_argument("samples, qualities, votes: expected " + std::to_string(K) + " values each");
-            std::vector<Candidate> cands(K);
-            for (pyb::ssize_t k = 0; k < K; ++k) {
-              cands[k].pose = pose_from_data(P.data() + 16 * k, "poses[" + std::to_string(k) + "]");
-              cands[k].dofs = Eigen::Map<const Eigen::VectorXd>(Q.data() + D * k, D);
-              cands[k].sample = static_cast<int>(S[k]);
-              cands[k].quality = A[k];
-              cands[k].votes = static_cast<int>(V[k]);
-            }
+          [](CandidatePipeline& p, const std::vector<Candidate>& candidates) {
+            const std::size_t D = p.options().steps.size();
+            for (std::size_t k = 0; k < candidates.size(); ++k)
+              if (static_cast<std::size_t>(candidates[k].dofs.size()) != D)
+                throw std::invalid_argument("candidates[" + std::to_string(k) + "].dofs: expected " +
+                                            std::to_string(D) + " values, got " +
+                                            std::to_string(candidates[k].dofs.size()));
             ChunkReport r;
             {
               pyb::gil_scoped_release release;
-              r = p.process(cands);
+              r = p.process(candidates);
             }
             return pyb::dict("settled"_a = r.settled, "settled_aligned"_a = r.settled_aligned,
                              "evaluated"_a = r.evaluated, "checks"_a = r.checks, "settle_seconds"_a = r.settle_seconds,
                              "evaluate_seconds"_a = r.evaluate_seconds);
           },
+          "candidates"_a,
+          "Settle, deduplicate and evaluate a chunk of aligned candidates (a list of AlignedCandidate); the evaluated ones are "
+          "appended to `evaluated`. Returns a dict of counts and the seconds of the settle and evaluate phases.")
+      .def(
+          "process",
+          [](pyb::object self, const pyb::object& poses, const pyb::object& dofs, const pyb::object& samples,
+             const pyb::object& qualities, const pyb::object& votes) {
+            deprecated("CandidatePipeline.process(poses, dofs, samples, qualities, votes)",
+                       "process([AlignedCandidate(...), ...])");
+            const DoubleArray P = as_double_array(poses, "poses");
+            const pyb::ssize_t K = P.ndim() == 3 ? P.shape(0) : -1;
+            if (K < 0 || P.shape(1) != 4 || P.shape(2) != 4)
+              throw std::invalid_argument("poses: expected a (K, 4, 4) array, got shape " + shape_of(P));
+            const DoubleArray Q = as_double_array(dofs, "dofs");
+            const Eigen::VectorXd S = vector_from(samples, "samples"), A = vector_from(qualities, "qualities"),
+                                  V = vector_from(votes, "votes");
+            if (Q.ndim() != 2 || Q.shape(0) != K || S.size() != K || A.size() != K || V.size() != K)
+              throw std::invalid_argument("poses, dofs, samples, qualities, votes: expected " + std::to_string(K) +
+                                          " of each");
+            std::vector<Candidate> cands(static_cast<std::size_t>(K));
+            for (pyb::ssize_t k = 0; k < K; ++k) {
+              cands[k].pose = pose_from_data(P.data() + 16 * k, "poses[" + std::to_string(k) + "]");
+              cands[k].dofs = Eigen::Map<const Eigen::VectorXd>(Q.data() + Q.shape(1) * k, Q.shape(1));
+              cands[k].sample_index = static_cast<int>(S[k]);
+              cands[k].alignment_quality = A[k];
+              cands[k].votes = static_cast<int>(V[k]);
+            }
+            return self.attr("process")(cands);
+          },
           "poses"_a, "dofs"_a, "samples"_a, "qualities"_a, "votes"_a,
-          "Settle, deduplicate and evaluate a chunk of aligned candidates (poses (K,4,4), DOF samples (K,D), sample "
-          "indices, Q_A and votes (K,)); the evaluated ones are appended to `evaluated`. Returns a dict of counts and "
-          "the seconds of the settle and evaluate phases.")
+          "Deprecated form of process(candidates): poses (K,4,4), DOF samples (K,D), sample indices, Q_A and votes (K,).")
       .def_property_readonly("fixed_links", [](const CandidatePipeline& p) {
             return std::vector<bool>(p.fixed_links().begin(), p.fixed_links().end());
           }, "Per link (Hand.links order): no closing DOF moves it (the palm group that backing off clears).")
@@ -471,7 +532,8 @@ void bind_planning(pyb::module_& m) {
       .def(
           "finish",
           [](const CandidatePipeline& p, int top, int fine_tune, int iterations, std::uint64_t seed,
-             std::optional<double> time_left, const std::string& rank, int robust_samples, int robust_pool) {
+             std::optional<double> time_left, const std::string& rank, int robust_samples, int rank_pool,
+             const pyb::object& robust_pool) {
             FinishOptions o;
             o.top = top;
             o.fine_tune = fine_tune;
@@ -479,7 +541,7 @@ void bind_planning(pyb::module_& m) {
             o.seed = seed;
             o.rank = ranking_from_string(rank);
             o.robust.samples = robust_samples;
-            o.robust_pool = robust_pool;
+            o.rank_pool = rank_pool_arg(rank_pool, robust_pool);
             if (time_left)
               o.deadline = std::chrono::steady_clock::now() +
                            std::chrono::duration_cast<std::chrono::steady_clock::duration>(
@@ -493,10 +555,11 @@ void bind_planning(pyb::module_& m) {
             return pyb::make_tuple(grasps, pyb::dict("fine_tune"_a = t.fine_tune, "robust"_a = t.robust));
           },
           "top"_a, "fine_tune"_a, "fine_tune_iterations"_a, "seed"_a, "time_left"_a = pyb::none(),
-          "rank"_a = to_string(FinishOptions().rank), "robust_samples"_a = RobustOptions().samples, "robust_pool"_a = FinishOptions().robust_pool,
+          "rank"_a = to_string(FinishOptions().rank), "robust_samples"_a = RobustOptions().samples,
+          "rank_pool"_a = FinishOptions().rank_pool, "robust_pool"_a = pyb::none(),
           "Rank the evaluated candidates, fine-tune the `fine_tune` best (seed + rank; none starts after `time_left` "
           "seconds), drop near-duplicates, score them with every contact and return (at most `top` RankedGrasp, best "
-          "first; {'fine_tune', 'robust'} seconds). rank 'robust': the max(top, robust_pool) best by epsilon are scored "
+          "first; {'fine_tune', 'robust'} seconds). Every rank but 'epsilon' picks from the pool, the max(top, rank_pool) best by epsilon (robust_pool: its deprecated name). rank 'robust': the pool is scored "
           "by robust_quality (robust_samples each) and ranked by force-closure probability, then robust epsilon; "
           "'epsilon': by force closure and epsilon; 'enclosure': rank 1 is the pool's force-closure grasp with the most "
           "hand links in contact, the others follow as 'epsilon' orders them; 'load': as 'enclosure', rank 1 the one with "
@@ -613,15 +676,15 @@ void bind_planning(pyb::module_& m) {
 
   m.def(
       "hull_rank_for",
-      [](int top, int fine_tune, const std::string& rank, int robust_pool) {
+      [](int top, int fine_tune, const std::string& rank, int rank_pool, const pyb::object& robust_pool) {
         FinishOptions o;
         o.top = top;
         o.fine_tune = fine_tune;
         o.rank = ranking_from_string(rank);
-        o.robust_pool = robust_pool;
+        o.rank_pool = rank_pool_arg(rank_pool, robust_pool);
         return hull_rank_for(o);
       },
-      "top"_a, "fine_tune"_a, "rank"_a, "robust_pool"_a = FinishOptions().robust_pool,
+      "top"_a, "fine_tune"_a, "rank"_a, "rank_pool"_a = FinishOptions().rank_pool, "robust_pool"_a = pyb::none(),
       "The CandidatePipeline hull_rank under which every grasp finish() can pick has its exact epsilon.");
 
   m.def(

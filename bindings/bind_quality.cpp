@@ -56,7 +56,8 @@ void bind_quality(pyb::module_& m) {
         pyb::gil_scoped_release release;
         return wrench_matrix(g.points, g.normals, g.center, radius, model);
       },
-      "points"_a, "normals"_a, "center"_a, "radius"_a, "mu"_a = 0.5, "edges"_a = 8, "soft"_a = false,
+      "points"_a, "normals"_a, "center"_a, "radius"_a, "mu"_a = ContactModel().mu, "edges"_a = ContactModel().edges,
+      "soft"_a = ContactModel().soft,
       "torsion"_a = pyb::none(), "soft_rings"_a = 0,
       (std::string("(N*D, 6) contact wrenches [f; ((p - center) x f + m n) / radius] in C++, D per contact (the "
                    "pyramid edges, then the soft contacts' rings and poles); normals are the target's outward "

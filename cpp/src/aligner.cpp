@@ -619,9 +619,8 @@ Pose AlignedPose::pose() const {
   return p;
 }
 
-Aligner::Aligner(std::shared_ptr<const PairIndex> index, const AlignerOptions& options)
+Aligner::Aligner(PairIndex index, const AlignerOptions& options)
     : index_(std::move(index)), options_(options) {
-  if (!index_) throw std::invalid_argument("index: expected a PairIndex, got null");
   AlignerOptions& o = options_;
   for (int k = 0; k < 3; ++k) check_tolerance("feature_tolerance", o.feature_tolerance[k]);
   check_tolerance("angle_tolerance", o.angle_tolerance);
@@ -645,7 +644,7 @@ Aligner::Aligner(std::shared_ptr<const PairIndex> index, const AlignerOptions& o
   if (o.min_votes < 0) throw std::invalid_argument("min_votes: expected >= 0, got " + std::to_string(o.min_votes));
   if (o.threads < 0) throw std::invalid_argument("threads: expected >= 0 (0: all cores), got " + std::to_string(o.threads));
 
-  const double h = reference_spacing(*index_);
+  const double h = reference_spacing(index_);
   const Vector3d def(0.5 * h, 0.1, 0.1);
   for (int k = 0; k < 3; ++k)
     if (o.feature_tolerance[k] == 0) o.feature_tolerance[k] = def[k];
@@ -656,10 +655,10 @@ Aligner::Aligner(std::shared_ptr<const PairIndex> index, const AlignerOptions& o
 
 const AlignerOptions& Aligner::options() const { return options_; }
 
-const PairIndex& Aligner::index() const { return *index_; }
+const PairIndex& Aligner::index() const { return index_; }
 
 AlignResult Aligner::align(const Points& points, const Points& normals) const {
-  return align_impl(*index_, options_, points, normals, detail::resolve_threads(options_.threads));
+  return align_impl(index_, options_, points, normals, detail::resolve_threads(options_.threads));
 }
 
 std::vector<AlignResult> Aligner::align_many(const std::vector<Constellation>& constellations, int max_poses) const {
@@ -675,7 +674,7 @@ std::vector<AlignResult> Aligner::align_many(const std::vector<Constellation>& c
   }
   std::vector<AlignResult> out(constellations.size());
   detail::parallel_for(constellations.size(), detail::resolve_threads(options_.threads), [&](std::size_t k) {
-    out[k] = align_impl(*index_, opt, constellations[k].points, constellations[k].normals, 1);
+    out[k] = align_impl(index_, opt, constellations[k].points, constellations[k].normals, 1);
   });
   return out;
 }

@@ -282,7 +282,7 @@ std::vector<std::int64_t> dedupe_key(const Pose& T, const Eigen::VectorXd& q, do
 }
 
 auto rank_key(const GraspEvaluation& e, const Candidate& c) {
-  return std::make_tuple(!e.pruned, e.quality.force_closure, e.quality.epsilon, c.quality, c.votes);
+  return std::make_tuple(!e.pruned, e.quality.force_closure, e.quality.epsilon, c.alignment_quality, c.votes);
 }
 
 }  // namespace
@@ -365,7 +365,7 @@ ChunkReport CandidatePipeline::process(const std::vector<Candidate>& candidates)
     }
   // 2. Deduplicate, best alignment quality first.
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    return settled[a].candidate.quality > settled[b].candidate.quality;
+    return settled[a].candidate.alignment_quality > settled[b].candidate.alignment_quality;
   });
   std::vector<std::size_t> todo;
   for (std::size_t k : order)
@@ -430,7 +430,7 @@ ChunkReport CandidatePipeline::process(const std::vector<Candidate>& candidates)
 }
 
 int hull_rank_for(const FinishOptions& options) {
-  return std::max({options.top, options.rank != Ranking::Epsilon ? options.robust_pool : 0, options.fine_tune});
+  return std::max({options.top, options.rank != Ranking::Epsilon ? options.rank_pool : 0, options.fine_tune});
 }
 
 GraspQuality CandidatePipeline::score_reduced(const Contacts& k, double threshold) const {
@@ -444,8 +444,8 @@ GraspQuality CandidatePipeline::score_reduced(const Contacts& k, double threshol
 std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options, FinishTimings* timings) const {
   const detail::BusyGuard busy(busy_, "CandidatePipeline");
   const auto t_start = Clock::now();
-  if (options.robust_pool < 1)
-    throw std::invalid_argument("robust_pool: expected an integer >= 1, got " + std::to_string(options.robust_pool));
+  if (options.rank_pool < 1)
+    throw std::invalid_argument("rank_pool: expected an integer >= 1, got " + std::to_string(options.rank_pool));
   if (options.top < 1) throw std::invalid_argument("top: expected an integer >= 1, got " + std::to_string(options.top));
   if (options.fine_tune < 0 || options.fine_tune_iterations < 0)
     throw std::invalid_argument("fine_tune: expected counts >= 0");
@@ -487,7 +487,7 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
   }
   auto tuned_key = [&](const RankedGrasp& g) {
     const Candidate& c = evaluated_[g.candidate].candidate;
-    return std::make_tuple(g.evaluation.quality.force_closure, g.evaluation.quality.epsilon, c.quality, c.votes);
+    return std::make_tuple(g.evaluation.quality.force_closure, g.evaluation.quality.epsilon, c.alignment_quality, c.votes);
   };
   std::stable_sort(tuned.begin(), tuned.end(),
                    [&](const RankedGrasp& a, const RankedGrasp& b) { return tuned_key(a) > tuned_key(b); });
@@ -501,7 +501,7 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
   const bool robust = options.rank == Ranking::Robust, load = options.rank == Ranking::Load;
   const bool enclosure = options.rank == Ranking::Enclosure || load;
   const bool pooled = options.rank != Ranking::Epsilon;
-  const int pool = pooled ? std::max(options.top, options.robust_pool) : options.top;
+  const int pool = pooled ? std::max(options.top, options.rank_pool) : options.top;
   auto exact = [](const RankedGrasp& g) {
     const GraspQuality& q = g.evaluation.quality;
     return !q.force_closure || q.epsilon_computed;
@@ -510,7 +510,7 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     const RankedGrasp& g = tuned[i];
     const Candidate& c = evaluated_[g.candidate].candidate;
     const GraspQuality& q = g.evaluation.quality;
-    return std::make_tuple(q.force_closure, exact(g) ? q.epsilon : std::max(q.epsilon, q.epsilon_bound), c.quality,
+    return std::make_tuple(q.force_closure, exact(g) ? q.epsilon : std::max(q.epsilon, q.epsilon_bound), c.alignment_quality,
                            c.votes, -static_cast<long>(i));
   };
   auto after = [&](std::size_t a, std::size_t b) { return walk_key(a) < walk_key(b); };
@@ -556,7 +556,7 @@ std::vector<RankedGrasp> CandidatePipeline::finish(const FinishOptions& options,
     const RobustQuality none;
     const RobustQuality& r = g.robust ? *g.robust : none;
     const GraspQuality& q = robust ? g.evaluation.quality : g.quality;
-    return std::make_tuple(r.force_closure_probability, r.epsilon, q.force_closure, q.epsilon, c.quality, c.votes, -i);
+    return std::make_tuple(r.force_closure_probability, r.epsilon, q.force_closure, q.epsilon, c.alignment_quality, c.votes, -i);
   };
   auto load_resistances = [&](std::vector<RankedGrasp>& grasps) {
     detail::parallel_for(grasps.size(), options_.threads, [&](std::size_t i) {

@@ -315,7 +315,7 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& sce
   auto s = std::make_shared<State>(hand, std::move(surface), std::move(obstacles), options, setup, std::move(*index));
   AlignerOptions ao;
   ao.threads = options.threads;
-  s->aligner = std::make_unique<Aligner>(std::make_shared<const PairIndex>(s->index.index), ao);
+  s->aligner = std::make_unique<Aligner>(s->index.index, ao);
   s->checker = std::move(checker);
   s->reference = torque_reference(s->surface.mesh);
   s->seconds = seconds_since(t0);

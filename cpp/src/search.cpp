@@ -132,10 +132,10 @@ SearchStep GraspSearch::add_samples(const std::vector<Eigen::VectorXd>& samples,
       const auto& poses = aligned[i].poses;
       for (std::size_t k = 0; k < poses.size() && static_cast<int>(k) < most; ++k) {
         Candidate c;
-        c.sample = static_cast<int>(samples_.size() - 1);
+        c.sample_index = static_cast<int>(samples_.size() - 1);
         c.pose = poses[k].pose();
         c.dofs = part[i];
-        c.quality = poses[k].quality;
+        c.alignment_quality = poses[k].quality;
         c.votes = poses[k].votes;
         if (static_cast<int>(k) < first) {
           cands.push_back(std::move(c));
@@ -173,7 +173,7 @@ std::vector<int> GraspSearch::ranked_samples() const {
   const std::vector<EvaluatedCandidate>& ev = pipeline_.evaluated();
   std::vector<int> best(samples_.size(), -1);  // per sample: its best evaluated candidate
   for (std::size_t k = 0; k < ev.size(); ++k) {
-    int& b = best[static_cast<std::size_t>(ev[k].candidate.sample)];
+    int& b = best[static_cast<std::size_t>(ev[k].candidate.sample_index)];
     if (b < 0 || ranks_before(ev[k], ev[static_cast<std::size_t>(b)])) b = static_cast<int>(k);
   }
   std::vector<int> out;

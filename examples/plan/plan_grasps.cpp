@@ -174,7 +174,7 @@ int main(int argc, char** argv) {
       else
         std::printf("    -        -  ");
       std::printf("%.3e  %7.2f  %5d  %8ld  [", g.quality.volume,
-                  c.candidate.quality, c.candidate.votes, static_cast<long>(e.contacts.points.rows()));
+                  c.candidate.alignment_quality, c.candidate.votes, static_cast<long>(e.contacts.points.rows()));
       for (Eigen::Index d = 0; d < e.dofs.size(); ++d) std::printf("%s%.4f", d ? " " : "", e.dofs[d]);
       std::printf("]%s\n", g.quality.force_closure ? "" : "  (not force-closure)");
       const Eigen::VectorXd joints = hand.joint_values(e.dofs, true);
@@ -193,7 +193,7 @@ int main(int argc, char** argv) {
              << ", \"dof\": " << list(e.dofs) << ", \"joints\": " << joint_text
              << ", \"epsilon\": " << num(g.quality.epsilon) << ", \"volume\": " << num(g.quality.volume)
              << ", \"force_closure\": " << (g.quality.force_closure ? "true" : "false")
-             << ", \"alignment_quality\": " << num(c.candidate.quality) << ", \"votes\": " << c.candidate.votes
+             << ", \"alignment_quality\": " << num(c.candidate.alignment_quality) << ", \"votes\": " << c.candidate.votes
              << ", \"penetration_depth\": " << num(e.depth) << ", \"contacts\": " << contacts
              << ", \"sample\": " << list(c.candidate.dofs) << ", \"aligned_pose\": " << matrix(c.candidate.pose)
              << ", \"backoff\": " << num(c.backoff) << ", \"fine_tuned\": " << (g.fine_tuned ? "true" : "false")

@@ -110,8 +110,8 @@ def dof_axes(lower: Sequence[float], upper: Sequence[float], step: Sequence[floa
 def dof_grid(lower: Sequence[float], upper: Sequence[float], step: Sequence[float]) -> List[np.ndarray]:
     """Deprecated name of :func:`dof_axes` (the per-DOF values, not the grid's samples as C++
     ``dof_grid`` returns); warns (DeprecationWarning) and will be removed in the next release."""
-    warnings.warn("pairgrasp.dof_grid is renamed dof_axes (it returns per-DOF values); dof_grid will be removed",
-                  DeprecationWarning, stacklevel=2)
+    warnings.warn("pairgrasp.dof_grid is deprecated: use dof_axes (it returns per-DOF values; dof_grid goes in the "
+                  "next release)", DeprecationWarning, stacklevel=2)
     return dof_axes(lower, upper, step)
 
 
@@ -441,7 +441,7 @@ class Planner:
         counts.update(search.counts)
         counts["samples"] = scheduled_samples[0]
         counts["force_closure"] = int(search.force_closure)
-        records = [Candidate(sample=c.sample, alignment_quality=c.quality, votes=c.votes,
+        records = [Candidate(sample_index=c.sample_index, alignment_quality=c.alignment_quality, votes=c.votes,
                              epsilon=float(c.evaluation.epsilon), force_closure=bool(c.evaluation.force_closure),
                              settled=c.settled, time=c.seconds) for c in evaluated]
         return PlanResult(grasps=grasps, candidates=records, timings=timings, counts=counts, edge=self.edge,
@@ -457,7 +457,7 @@ class Planner:
             grasps.append(Grasp(
                 rank=len(grasps) + 1, wrist_pose=np.array(ev.wrist_pose), dofs=np.array(ev.dofs), joints=joints,
                 epsilon=float(g.epsilon), volume=float(g.volume), force_closure=bool(g.force_closure),
-                alignment_quality=float(c.quality), votes=int(c.votes), penetration_depth=float(ev.depth),
+                alignment_quality=float(c.alignment_quality), votes=int(c.votes), penetration_depth=float(ev.depth),
                 contact_points=np.array(ev.contact_points), contact_normals=np.array(ev.contact_normals),
                 contact_links=tuple(ev.contact_links), sample=np.array(c.dofs), aligned_pose=np.array(c.pose),
                 backoff=float(c.backoff), fine_tuned=bool(g.fine_tuned),

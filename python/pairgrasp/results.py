@@ -2,6 +2,7 @@
 and the :class:`PlanResult` with its grasps.json document."""
 from __future__ import annotations
 
+import warnings
 from dataclasses import asdict, dataclass
 from typing import Dict, List, Optional, Tuple
 
@@ -104,13 +105,19 @@ class Candidate:
     """An evaluated candidate (for Figure 8): its sample index, Q_A, votes and outcome, and ``time``:
     seconds from the start of :meth:`Planner.plan` until its evaluation finished (index excluded)."""
 
-    sample: int
+    sample_index: int
     alignment_quality: float
     votes: int
     epsilon: float
     force_closure: bool
     settled: str  # "aligned" or "adjusted" (settling in candidates.hpp: kept as aligned, or moved least)
     time: float = 0.0
+
+    @property
+    def sample(self) -> int:
+        """Deprecated name of ``sample_index`` (a grasp's ``sample`` is its DOF vector); warns."""
+        warnings.warn("Candidate.sample is deprecated: use Candidate.sample_index", DeprecationWarning, stacklevel=2)
+        return self.sample_index
 
 
 @dataclass

@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <atomic>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -74,7 +75,7 @@ class Concurrency : public ::testing::Test {
     PairIndexOptions o;
     o.d_max = 0.2;
     o.threads = 1;
-    index_ = std::make_shared<const PairIndex>(facets_->points, facets_->normals, facets_->free, o);
+    index_ = std::make_optional<PairIndex>(facets_->points, facets_->normals, facets_->free, o);
     const Eigen::VectorXd lo = hand_->dof_lower(), hi = hand_->dof_upper();
     for (double s : {0.0, 0.5}) {
       for (double f : {0.3, 0.6, 0.9}) {
@@ -95,7 +96,7 @@ class Concurrency : public ::testing::Test {
   static std::unique_ptr<Hand> hand_;
   static std::unique_ptr<Mesh> mesh_;
   static std::unique_ptr<UnitFacets> facets_;
-  static std::shared_ptr<const PairIndex> index_;
+  static std::optional<PairIndex> index_;
   static std::vector<Eigen::VectorXd> samples_;
   static std::vector<Constellation> constellations_;
 };
@@ -103,7 +104,7 @@ class Concurrency : public ::testing::Test {
 std::unique_ptr<Hand> Concurrency::hand_;
 std::unique_ptr<Mesh> Concurrency::mesh_;
 std::unique_ptr<UnitFacets> Concurrency::facets_;
-std::shared_ptr<const PairIndex> Concurrency::index_;
+std::optional<PairIndex> Concurrency::index_;
 std::vector<Eigen::VectorXd> Concurrency::samples_;
 std::vector<Constellation> Concurrency::constellations_;
 
@@ -124,14 +125,14 @@ TEST_F(Concurrency, PairIndexBuiltOnSeveralThreadsAtOnceEqualsSerial) {
 TEST_F(Concurrency, AlignAndAlignManyFromSeveralThreadsEqualSerial) {
   AlignerOptions serial_options;
   serial_options.threads = 1;
-  const Aligner serial(index_, serial_options);
+  const Aligner serial(*index_, serial_options);
   std::vector<AlignResult> ref;
   for (const auto& c : constellations_) ref.push_back(serial.align(c.points, c.normals));
   ASSERT_FALSE(ref.front().poses.empty());
 
   AlignerOptions o;
   o.threads = 2;
-  const Aligner shared(index_, o);
+  const Aligner shared(*index_, o);
   std::vector<std::vector<AlignResult>> many(kCallers), one(kCallers);
   on_callers([&](int t) {
     many[t] = shared.align_many(constellations_);
@@ -155,7 +156,7 @@ TEST_F(Concurrency, CheckManyAndCloseFromSeveralThreadsEqualSerial) {
   AlignerOptions ao;
   ao.threads = 1;
   ao.max_poses = 3;
-  const Aligner aligner(index_, ao);
+  const Aligner aligner(*index_, ao);
   std::vector<Pose> wrists;
   std::vector<Eigen::VectorXd> dofs;
   for (std::size_t k = 0; k < constellations_.size(); ++k)

@@ -140,7 +140,7 @@ def test_time_limit_stops_within_the_chunk_under_way(barrett_flask):
     # Candidates evaluated after the limit all come from the chunk under way (which may have
     # evaluated none: its poses can all be dropped or duplicates, as happened under ASan's timing).
     late = [cand for cand in r.candidates if cand.time > limit]
-    assert all(cand.sample >= c["aligned_samples"] - chunk for cand in late)
+    assert all(cand.sample_index >= c["aligned_samples"] - chunk for cand in late)
     assert not any(g.fine_tuned for g in r.grasps)
 
 
@@ -165,7 +165,7 @@ def test_fast_refine_rounds_climb_from_the_last_round(jaw_planner):
         assert b.counts["samples"] >= a.counts["samples"]
         best = lambda r: max((c.epsilon for c in r.candidates), default=0.0)  # noqa: E731
         assert best(b) >= best(a)
-        key = lambda c: (c.sample, c.epsilon, c.alignment_quality)  # noqa: E731
+        key = lambda c: (c.sample_index, c.epsilon, c.alignment_quality)  # noqa: E731
         assert [key(c) for c in b.candidates[:len(a.candidates)]] == [key(c) for c in a.candidates]
     assert runs[0].counts["samples"] < runs[1].counts["samples"] <= n
 
@@ -211,7 +211,7 @@ def test_deepening_adds_the_coarse_samples_next_poses(jaw_planner):
     assert deep.counts["aligned_poses"] == sum(counts)
     assert none.counts["deepened_poses"] == 0 and none.counts["aligned_poses"] == sum(min(n, 3) for n in counts)
     # Deepening only adds candidates after the others.
-    key = lambda c: (c.sample, c.epsilon, c.alignment_quality)  # noqa: E731
+    key = lambda c: (c.sample_index, c.epsilon, c.alignment_quality)  # noqa: E731
     assert [key(c) for c in deep.candidates[:len(none.candidates)]] == [key(c) for c in none.candidates]
 
 

@@ -102,7 +102,8 @@ def barrett_pose(z):
 
 def test_robust_ranking_prefers_the_centred_grasp_over_the_edge_grasp_of_higher_epsilon(barrett_checker):
     pipe = pg.CandidatePipeline(barrett_checker, edge=0.005, backoff=0.0, contacts_per_link=4)
-    pipe.process(np.array([barrett_pose(CENTRED), barrett_pose(EDGE)]), np.zeros((2, 4)), [0, 1], [1.0, 1.0], [1, 1])
+    pipe.process([pg.AlignedCandidate(barrett_pose(p), np.zeros(4), sample_index=k, alignment_quality=1.0, votes=1)
+                  for k, p in enumerate((CENTRED, EDGE))])
     by_eps, _ = pipe.finish(2, 0, 0, 0, rank="epsilon")
     robust, seconds = pipe.finish(2, 0, 0, 0, rank="robust", robust_samples=8)
     zs = lambda gs: [round(float(g.evaluation.wrist_pose[2, 3]), 4) for g in gs]   # noqa: E731
@@ -117,6 +118,41 @@ def test_robust_ranking_prefers_the_centred_grasp_over_the_edge_grasp_of_higher_
     assert seconds["robust"] > 0
     with pytest.raises(ValueError, match="rank"):
         pipe.finish(2, 0, 0, 0, rank="votes")
+
+
+
+def test_renamed_candidate_names_keep_a_warning_alias(barrett_checker):
+    """Candidates enter as AlignedCandidate objects (no parallel arrays); the old array form, the old
+    attribute names (sample, quality) and robust_pool still work for a release, with a DeprecationWarning."""
+    poses = [barrett_pose(CENTRED), barrett_pose(EDGE)]
+    new = pg.CandidatePipeline(barrett_checker, edge=0.005, backoff=0.0, contacts_per_link=4)
+    new.process([pg.AlignedCandidate(T, np.zeros(4), sample_index=5 + k, alignment_quality=0.5 + k, votes=3)
+                 for k, T in enumerate(poses)])
+    old = pg.CandidatePipeline(barrett_checker, edge=0.005, backoff=0.0, contacts_per_link=4)
+    with pytest.warns(DeprecationWarning, match="AlignedCandidate"):
+        old.process(np.array(poses), np.zeros((2, 4)), [5, 6], [0.5, 1.5], [3, 3])
+    a, b = new.evaluated(), old.evaluated()
+    assert sorted(c.sample_index for c in a) == sorted(c.sample_index for c in b) == [5, 6]
+    for c in a + b:
+        assert c.alignment_quality == 0.5 + (c.sample_index - 5) and c.votes == 3
+    with pytest.warns(DeprecationWarning, match="sample_index"):
+        assert a[0].sample == a[0].sample_index
+    with pytest.warns(DeprecationWarning, match="alignment_quality"):
+        assert a[0].quality == a[0].alignment_quality
+    ranked_new, _ = new.finish(2, 0, 0, 0, rank="load", rank_pool=1)
+    with pytest.warns(DeprecationWarning, match="rank_pool"):
+        ranked_old, _ = old.finish(2, 0, 0, 0, rank="load", robust_pool=1)
+    assert [g.evaluation.wrist_pose[2, 3] for g in ranked_new] == [g.evaluation.wrist_pose[2, 3] for g in ranked_old]
+    with pytest.warns(DeprecationWarning, match="rank_pool"):
+        assert pg._core.hull_rank_for(5, 0, "load", robust_pool=12) == pg._core.hull_rank_for(5, 0, "load", rank_pool=12) == 12
+    with pytest.raises(ValueError, match="dofs"):
+        new.process([pg.AlignedCandidate(poses[0], np.zeros(3))])
+    with pytest.raises(ValueError, match="pose"):
+        pg.AlignedCandidate(np.eye(3), np.zeros(4))
+    record = pg.Candidate(sample_index=2, alignment_quality=1.0, votes=1, epsilon=0.1, force_closure=True,
+                          settled="aligned")
+    with pytest.warns(DeprecationWarning, match="sample_index"):
+        assert record.sample == 2
 
 
 # ----- the trials' noise model -----

@@ -173,10 +173,10 @@ def test_settling_lifts_the_hand_out_of_the_support_or_drops_it():
         T[0, 3] = 0.15
         T[2, 3] = -below - low                       # the lowest vertex `below` m under the table
         poses.append(T)
-    rep = pipe.process(np.array(poses), np.array([dofs, dofs]), [0, 1], [1.0, 1.0], [1, 1])
+    rep = pipe.process([pg.AlignedCandidate(T, dofs, sample_index=k, alignment_quality=1.0, votes=1) for k, T in enumerate(poses)])
     assert rep["settled"] == 1
     (c,) = pipe.evaluated()
-    assert c.sample == 0 and c.settled == "adjusted" and c.backoff == 0.0
+    assert c.sample_index == 0 and c.settled == "adjusted" and c.backoff == 0.0
     lifted = np.asarray(c.start_pose)
     assert np.allclose(lifted[:3, :3], poses[0][:3, :3]) and np.allclose(lifted[:2, 3], poses[0][:2, 3])
     gap = 0.001  # the contact gap it clears the table by

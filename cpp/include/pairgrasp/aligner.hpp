@@ -162,9 +162,10 @@ struct AlignResult {
 /// several threads at once.
 class Aligner {
  public:
-  /// Throws std::invalid_argument for a null index, a negative or non-finite tolerance, a zero
-  /// capacity, or max_poses, rotation_clusters, positions_per_rotation < 1, threads < 0.
-  explicit Aligner(std::shared_ptr<const PairIndex> index, const AlignerOptions& options = {});
+  /// `index` is a handle (copies share the stored pairs). Throws std::invalid_argument for a
+  /// negative or non-finite tolerance, a zero capacity, or max_poses, rotation_clusters,
+  /// positions_per_rotation < 1, threads < 0.
+  explicit Aligner(PairIndex index, const AlignerOptions& options = {});
 
   /// Aligns one constellation: points (P,3) in the wrist frame (metres), normals (P,3) unit,
   /// as stored on the gripper (pointing out of the finger surface). P >= 2.
@@ -184,7 +185,7 @@ class Aligner {
   const PairIndex& index() const;
 
  private:
-  std::shared_ptr<const PairIndex> index_;
+  PairIndex index_;
   AlignerOptions options_;
 };
 

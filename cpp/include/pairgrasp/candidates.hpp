@@ -69,10 +69,10 @@ struct PipelineOptions {
 
 /// An aligned candidate.
 struct Candidate {
-  int sample = 0;                   ///< the DOF sample it came from (the caller's index)
+  int sample_index = 0;             ///< index of the DOF sample it came from (the caller's order)
   Pose pose = Pose::Identity();     ///< aligned wrist pose (target frame)
   Eigen::VectorXd dofs;             ///< the DOF sample's values
-  double quality = 0.0;             ///< alignment quality Q_A
+  double alignment_quality = 0.0;   ///< Q_A of its alignment (AlignedPose::quality, paper eq. 8)
   int votes = 0;                    ///< rotation votes of the alignment
 };
 
@@ -134,7 +134,7 @@ enum class Ranking {
   Robust,
   /// The paper's: force closure, then epsilon from every contact, then alignment quality, then votes.
   Epsilon,
-  /// Rank 1: of the max(top, robust_pool) best distinct grasps by epsilon, the force-closure grasp
+  /// Rank 1: of the max(top, rank_pool) best distinct grasps by epsilon, the force-closure grasp
   /// with the most distinct hand links in contact (then epsilon as the search scored it). Ranks 2
   /// to top: the next best of them by the search's epsilon, ordered as Epsilon. In the physics
   /// check (docs/physics.md) its rank-1 grasp held more often than the other rankings'.
@@ -167,15 +167,15 @@ struct FinishOptions {
   /// its rank-1 grasp held more often than the enclosure, epsilon and robust rankings', and its
   /// top 5 at least as often as the epsilon ranking's.
   Ranking rank = Ranking::Load;
-  /// Ranking::Robust and Ranking::Enclosure: the max(top, robust_pool) best distinct grasps by
-  /// epsilon are the pool the ranking picks from. Robust: they are scored by
+  /// Every ranking but Ranking::Epsilon (robust, enclosure, load): the max(top, rank_pool) best
+  /// distinct grasps by epsilon are the pool the ranking picks from. Robust: they are scored by
   /// robust_quality() (with RobustOptions::samples, translation_sigma, rotation_sigma,
   /// friction_spread and quantile from `robust`; the pipeline's scoring and threads; the seed
   /// seed + 0x9E3779B97F4A7C15 (candidate + 1)) and the `top` most robust returned. The pool does
   /// not shrink with `top`, so the first grasps (Enclosure: rank 1) do not depend on how many are
   /// asked for.
   RobustOptions robust;
-  int robust_pool = 10;
+  int rank_pool = 10;  ///< >= 1 (see above)
   /// Ranking::Load: rank 1 is taken among the pool's force-closure grasps whose closing push
   /// (closing_push() of grasp.hpp) has opposition and drive at least these, when there are any
   /// (-1: every grasp). Chosen on the held-out benchmark's dev half (docs/physics.md).
@@ -184,8 +184,8 @@ struct FinishOptions {
 };
 
 /// The PipelineOptions::hull_rank under which every candidate finish() can pick (fine-tunes, or
-/// scores robustly) has its exact epsilon: max(top, robust_pool when ranking robustly or by
-/// enclosure, fine_tune).
+/// scores robustly) has its exact epsilon: max(top, rank_pool unless ranking by epsilon,
+/// fine_tune).
 int hull_rank_for(const FinishOptions& options);
 
 /// Seconds spent in the parts of finish().
