@@ -187,10 +187,15 @@ void bind_hand(pyb::module_& m) {
       .def_property_readonly("approach", [](const Hand& h) { return Eigen::Vector3d(h.approach()); },
                              "Unit approach direction in the wrist frame (the way the palm faces).")
       .def_property_readonly("links", &Hand::links, pyb::return_value_policy::reference_internal,
-                             "Links with geometry (HandLink), depth-first from the URDF root.")
-      .def_property_readonly("link_names", &Hand::link_names, "Every URDF link, depth-first from the root.")
-      .def_property_readonly("root_to_wrist", [](const Hand& h) { return matrix4(h.root_to_wrist()); },
-                             "4x4 pose of the wrist frame in the URDF root frame (fixed).")
+                             "Links with geometry (HandLink), depth-first from the wrist link.")
+      .def_property_readonly("link_names", &Hand::link_names, "Every link of the hand (the wrist link's subtree), depth-first from the wrist.")
+      .def_property_readonly("root_to_wrist", [](const Hand&) {
+            if (PyErr_WarnEx(PyExc_DeprecationWarning,
+                             "Hand.root_to_wrist is deprecated: use the identity (the hand is rooted at its wrist "
+                             "link; the name goes in the next release)", 1) != 0)
+              throw pyb::error_already_set();
+            return matrix4(Pose::Identity());
+          }, "Deprecated: the identity (the hand is the wrist link's subtree).")
       .def("link_index", &Hand::link_index, "name"_a, "Index of a link in `links`, -1 when it has no geometry.")
       .def_property_readonly("joints", &Hand::joints,
                              "The URDF joints (HandJoint), fixed ones included, depth-first from the root.")

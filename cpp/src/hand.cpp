@@ -234,7 +234,7 @@ HandInertial Hand::inertial(const std::string& link_name) const {
 
 const std::string& Hand::wrist_link() const { return impl_->wrist; }
 const Eigen::Vector3d& Hand::approach() const { return impl_->approach; }
-Pose Hand::root_to_wrist() const { return impl_->root_to_wrist; }
+Pose Hand::root_to_wrist() const { return Pose::Identity(); }
 
 std::vector<std::string> Hand::joint_names() const {
   std::vector<std::string> out;
@@ -248,18 +248,16 @@ Eigen::VectorXd Hand::joint_values(const Eigen::VectorXd& dofs, bool clamp) cons
 
 std::map<std::string, Pose> Hand::link_transforms(const Eigen::VectorXd& dofs, bool clamp) const {
   const std::vector<Pose> T = impl_->root_poses(joint_values(dofs, clamp));
-  const Pose wrist_inv = impl_->root_to_wrist.inverse();
   std::map<std::string, Pose> out;
-  for (std::size_t li = 0; li < T.size(); ++li) out.emplace(impl_->model.links[li].name, wrist_inv * T[li]);
+  for (std::size_t li = 0; li < T.size(); ++li) out.emplace(impl_->model.links[li].name, T[li]);
   return out;
 }
 
 std::vector<Pose> Hand::link_poses(const Eigen::VectorXd& dofs, bool clamp) const {
   const std::vector<Pose> T = impl_->root_poses(joint_values(dofs, clamp));
-  const Pose wrist_inv = impl_->root_to_wrist.inverse();
   std::vector<Pose> out(impl_->model.geometry.size(), Pose::Identity());
   for (std::size_t li = 0; li < T.size(); ++li)
-    if (impl_->model.links[li].geometry >= 0) out[impl_->model.links[li].geometry] = wrist_inv * T[li];
+    if (impl_->model.links[li].geometry >= 0) out[impl_->model.links[li].geometry] = T[li];
   return out;
 }
 

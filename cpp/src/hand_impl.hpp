@@ -5,6 +5,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -48,11 +49,19 @@ struct KModel {
   std::map<std::string, int> link_index, joint_index;
 };
 
-/// Reads the URDF at `urdf_path` and the geometry of its links. Mesh URIs are resolved
-/// relative to the URDF's directory, `package://` ones through `package_paths`.
-/// Throws FileError naming the URDF (malformed, unsupported joint, unresolvable package URI)
-/// or the mesh and its link (missing or unreadable mesh).
-KModel load_urdf(const std::string& urdf_path, const std::vector<std::string>& package_paths);
+/// Thrown by load_urdf() when `wrist_link` cannot root a hand: no such link, or a joint of its
+/// subtree mimics a joint above it.
+struct BadWrist : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// Reads the hand in the URDF at `urdf_path` and the geometry of its links. The hand is the
+/// subtree of `wrist_link`, its root: the links above it (a robot's arm, a mount) and their joints
+/// are ignored, their meshes not read. Mesh URIs are resolved relative to the URDF's directory, `package://`
+/// ones through `package_paths`. Throws BadWrist, or FileError naming the URDF (malformed,
+/// unsupported joint, unresolvable package URI) or the mesh and its link (missing or unreadable mesh).
+KModel load_urdf(const std::string& urdf_path, const std::vector<std::string>& package_paths,
+                 const std::string& wrist_link);
 
 /// Closed-form triangle meshes of the URDF primitives, link frame, outward winding.
 Mesh box_mesh(const Eigen::Vector3d& size, const std::string& name);
@@ -93,7 +102,6 @@ struct Hand::Impl {
   hand_detail::KModel model;
   std::vector<Dof> dofs;
   Eigen::Vector3d approach = Eigen::Vector3d::UnitZ();
-  Pose root_to_wrist = Pose::Identity();
   std::vector<hand_detail::Drive> drives;  ///< per joint value (model.movable order), mimics resolved
   std::vector<hand_detail::LinkSample> per_link;  ///< active links, links() order
 

@@ -152,30 +152,20 @@ Hand Hand::load(const std::string& spec_path, const HandLoadOptions& options) {
       package_paths.push_back(p.lexically_normal().string());
     }
   }
-  h.model = hand_detail::load_urdf(urdf_path.lexically_normal().string(), package_paths);
-  const hand_detail::KModel& km = h.model;
   const std::string urdf_file = urdf_path.filename().string();
+  h.wrist = spec.string(spec.require(doc, "", "wrist_link"), "wrist_link");
+  try {
+    h.model = hand_detail::load_urdf(urdf_path.lexically_normal().string(), package_paths, h.wrist);
+  } catch (const hand_detail::BadWrist& e) {
+    spec.fail("wrist_link", std::string(e.what()) + " in " + urdf_file);
+  }
+  const hand_detail::KModel& km = h.model;
 
   h.name = km.robot_name;
   if (doc.contains("name")) h.name = spec.string(doc["name"], "name");
 
   // ---------------------------------------------------------------- wrist and approach
-  h.wrist = spec.string(spec.require(doc, "", "wrist_link"), "wrist_link");
-  {
-    auto it = km.link_index.find(h.wrist);
-    if (it == km.link_index.end()) spec.fail("wrist_link", "no link '" + h.wrist + "' in " + urdf_file);
-    h.wrist_index = it->second;
-    Pose T = Pose::Identity();
-    for (int li = h.wrist_index; km.links[li].parent_joint >= 0;) {
-      const KJoint& j = km.joints[km.links[li].parent_joint];
-      if (j.type != KJoint::Fixed)
-        spec.fail("wrist_link", "link '" + h.wrist + "' is moved by joint '" + j.name +
-                                    "' relative to the URDF root; the wrist must be fixed to the root");
-      T = j.origin * T;
-      li = j.parent;
-    }
-    h.root_to_wrist = T;
-  }
+  h.wrist_index = km.link_index.at(h.wrist);  // 0: load_urdf() roots the hand at its wrist
   h.approach = spec.vec3(spec.require(doc, "", "approach"), "approach", true).normalized();
 
   // ---------------------------------------------------------------- DOFs

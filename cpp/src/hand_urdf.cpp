@@ -263,11 +263,14 @@ const char* type_name(int type) {
 
 }  // namespace
 
-KModel load_urdf(const std::string& urdf_path, const std::vector<std::string>& package_paths) {
+KModel load_urdf(const std::string& urdf_path, const std::vector<std::string>& package_paths,
+                 const std::string& wrist_link) {
   const std::string xml = read_text(urdf_path);
   const urdf::ModelInterfaceSharedPtr model = parse(urdf_path, xml);
-  const urdf::LinkConstSharedPtr root = model->getRoot();
-  if (!root) throw FileError(urdf_path, "malformed URDF: no root link");
+  if (!model->getRoot()) throw FileError(urdf_path, "malformed URDF: no root link");
+  // The hand is the wrist's subtree: what lies above it (a robot's arm, a mount) is not read.
+  const urdf::LinkConstSharedPtr root = model->getLink(wrist_link);
+  if (!root) throw BadWrist("no link '" + wrist_link + "'");
 
   // Child joints in file order (urdfdom keeps them sorted by name).
   const std::vector<std::string> order = joint_order(xml);
@@ -376,6 +379,9 @@ KModel load_urdf(const std::string& urdf_path, const std::vector<std::string>& p
   for (KJoint& j : km.joints) {
     if (j.mimic_of.empty()) continue;
     auto it = km.joint_index.find(j.mimic_of);
+    if (it == km.joint_index.end() && model->getJoint(j.mimic_of))
+      throw BadWrist("joint '" + j.name + "' of the hand mimics joint '" + j.mimic_of + "', which is above link '" +
+                     wrist_link + "' (not part of the hand)");
     if (it == km.joint_index.end())
       throw FileError(urdf_path, "joint '" + j.name + "': <mimic> names unknown joint '" + j.mimic_of + "'");
     if (km.joints[it->second].type == KJoint::Fixed)

@@ -8,7 +8,7 @@ palm. The library imports and works without MuJoCo; only :class:`Simulator` and
 
 The scene (:class:`Simulator`, compiled once per hand, target and obstacles):
 
-* **Hand.** One body per URDF link, rooted at the URDF root, which is fixed in the world: the
+* **Hand.** One body per link of the hand, rooted at its wrist link, which is fixed in the world: the
   simulation runs in the hand's frame (see *Loads*). Every non-fixed URDF joint is a MuJoCo hinge or
   slide joint with the URDF's axis and position limits. Each DOF of the hand spec has one position
   actuator on its first joint; the DOF's other joints and every URDF ``<mimic>`` joint follow through
@@ -653,9 +653,8 @@ class Simulator:
         start = np.clip(q - dirs * p.open_fraction * (hi - lo), lo, hi)
         goal = np.where(dirs > 0, 2 * hi - lo, np.where(dirs < 0, 2 * lo - hi, q))   # one range past the limit
 
-        # The hand's root frame is the world: objects in the target frame are placed by inv(root in target).
-        root_in_target = W @ np.linalg.inv(np.asarray(h.root_to_wrist, float))
-        to_world = np.linalg.inv(root_in_target)
+        # The hand's root (its wrist link) frame is the world: objects in the target frame are placed by inv(W).
+        to_world = np.linalg.inv(W)
         Rw = to_world[:3, :3]
         d = mujoco.MjData(m)
         saved = self._override(friction, density)
@@ -676,7 +675,7 @@ class Simulator:
             # are moved back along the approach out of the object's convex pieces (the plan allows
             # them a small depth; a penalty contact would resolve it in a few steps and throw the
             # object out of the hand). In the hand's frame the object and the obstacles move instead.
-            approach = np.asarray(h.root_to_wrist, float)[:3, :3] @ np.asarray(h.approach, float)
+            approach = np.asarray(h.approach, float)
             start_backoff = 0.0
             for _ in range(4):
                 depth = self._static_depth(d)

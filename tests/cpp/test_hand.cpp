@@ -162,7 +162,7 @@ TEST(HandLoad, BarrettModelMatchesItsSpec) {
     EXPECT_NEAR(h.dof_step()[i], 0.25, 1e-12);
   }
   EXPECT_TRUE(h.approach().isApprox(Vector3d::UnitZ()));
-  EXPECT_TRUE(h.root_to_wrist().matrix().isApprox(Eigen::Matrix4d::Identity()));
+  EXPECT_EQ(h.link_names().front(), "bh_palm");  // the wrist link is the hand's root
   EXPECT_EQ(h.joint_names().size(), 8u);  // 2 spread + 3 flexion + 3 distal mimics
   EXPECT_EQ(h.links().size(), 10u);       // palm, 3 knuckles, 3 proximal, 3 distal
   int active = 0;
@@ -499,7 +499,7 @@ const char* kSmallSpec = R"({
 })";
 }  // namespace
 
-TEST(HandUrdf, PrimitivesMimicChainsAndRootToWrist) {
+TEST(HandUrdf, PrimitivesMimicChainsAndTheWristSubtree) {
   TempDir dir;
   dir.write("small.urdf", small_urdf());
   const std::string spec = dir.write("small.json", kSmallSpec);
@@ -508,14 +508,11 @@ TEST(HandUrdf, PrimitivesMimicChainsAndRootToWrist) {
   const Hand h = Hand::load(spec, opt);
   EXPECT_EQ(h.name(), "small");  // the URDF's robot name when the spec has none
   EXPECT_TRUE(h.approach().isApprox(Vector3d::UnitZ()));
-  // The wrist (palm) is offset from the URDF root (base) by the fixed joint's origin.
-  Pose expected = Pose::Identity();
-  expected.translation() = Vector3d(0.1, 0.2, 0.3);
-  expected.linear() = Eigen::AngleAxisd(0.5, Vector3d::UnitZ()).toRotationMatrix();
-  EXPECT_TRUE(h.root_to_wrist().isApprox(expected, 1e-12));
+  // The hand is the wrist's subtree: the URDF root above the wrist (base) is not part of it.
+  EXPECT_EQ(h.link_names(), (std::vector<std::string>{"palm", "a", "b", "c", "d"}));
   const auto T = h.link_transforms(vec({0.0, 0.0}));
   EXPECT_TRUE(T.at("palm").isApprox(Pose::Identity()));
-  EXPECT_TRUE(T.at("base").isApprox(expected.inverse(), 1e-12));
+  EXPECT_EQ(T.count("base"), 0u);
   // Limits: j1's [-1, 1] and its mimic j2 (2 q + 0.1 in [-5, 5]) leave [-1, 1]; the continuous j4
   // defaults to [-pi, pi].
   EXPECT_NEAR(h.dof_lower()[0], -1.0, 1e-12);
@@ -543,6 +540,70 @@ TEST(HandUrdf, PrimitivesMimicChainsAndRootToWrist) {
   const auto T4 = h.link_transforms(vec({0.4, 0.0}));
   const Vector3d b = Vector3d(0, 0, 0.02) + 0.04 * Vector3d(0, -std::sin(0.4), std::cos(0.4));
   EXPECT_LT((T4.at("b").translation() - b).norm(), 1e-12);
+}
+
+// A robot's whole URDF: an arm (two revolute joints, a mesh that does not exist), a flange fixed to
+// its last link, the hand (palm, one prismatic finger) fixed to the flange. The palm's material is
+// defined nowhere, as in a hand cut out of a robot's URDF: urdfdom tolerates it, and so do we.
+const char* kRobotUrdf = R"(<?xml version="1.0"?>
+<robot name="arm_and_hand">
+  <link name="world"><collision><geometry><mesh filename="no_such_arm_mesh.stl"/></geometry></collision></link>
+  <link name="upper"><collision><geometry><cylinder radius="0.03" length="0.3"/></geometry></collision></link>
+  <link name="lower"><collision><geometry><cylinder radius="0.03" length="0.3"/></geometry></collision></link>
+  <link name="flange"/>
+  <link name="palm"><collision><geometry><box size="0.08 0.04 0.02"/></geometry></collision>
+    <visual><geometry><box size="0.08 0.04 0.02"/></geometry><material name="defined_nowhere"/></visual></link>
+  <link name="finger"><collision><origin xyz="0 0 0.03"/><geometry><box size="0.01 0.02 0.04"/></geometry></collision></link>
+  <joint name="shoulder" type="revolute"><parent link="world"/><child link="upper"/><axis xyz="0 0 1"/>
+    <limit lower="-2" upper="2" effort="10" velocity="1"/></joint>
+  <joint name="elbow" type="revolute"><parent link="upper"/><child link="lower"/><origin xyz="0 0 0.3"/>
+    <axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="10" velocity="1"/></joint>
+  <joint name="to_flange" type="fixed"><parent link="lower"/><child link="flange"/><origin xyz="0 0 0.2"/></joint>
+  <joint name="to_palm" type="fixed"><parent link="flange"/><child link="palm"/>
+    <origin xyz="0 0 0.05" rpy="0 0 0.7"/></joint>
+  <joint name="slide" type="prismatic"><parent link="palm"/><child link="finger"/><origin xyz="0.02 0 0.01"/>
+    <axis xyz="1 0 0"/><limit lower="0" upper="0.03" effort="10" velocity="0.1"/>MIMIC</joint>
+</robot>
+)";
+
+std::string robot_spec(const std::string& wrist) {
+  return R"({"urdf": "robot.urdf", "wrist_link": ")" + wrist + R"(", "approach": [0, 0, 1],
+  "dofs": [{"name": "open", "joints": [{"joint": "slide"}]}],
+  "active_surfaces": [{"link": "finger", "normal_cone": {"axis": [-1, 0, 0], "half_angle_deg": 10}}]})";
+}
+
+TEST(HandUrdf, TheHandInsideARobotIsTheWristSubtree) {
+  TempDir dir;
+  std::string urdf = kRobotUrdf;
+  replace_in(urdf, "MIMIC", "");
+  dir.write("robot.urdf", urdf);
+  // The arm above the wrist is ignored: its joints drive nothing and its missing mesh is not read.
+  const Hand h = Hand::load(dir.write("palm.json", robot_spec("palm")));
+  EXPECT_EQ(h.link_names(), (std::vector<std::string>{"palm", "finger"}));
+  EXPECT_EQ(h.joint_names(), (std::vector<std::string>{"slide"}));
+  const auto T = h.link_transforms(vec({0.01}));
+  EXPECT_TRUE(T.at("palm").isApprox(Pose::Identity(), 1e-12));
+  EXPECT_TRUE(T.at("finger").translation().isApprox(Vector3d(0.03, 0, 0.01), 1e-12));
+  // A wrist higher up takes the links below it, with the fixed offsets of the URDF.
+  const Hand f = Hand::load(dir.write("flange.json", robot_spec("flange")));
+  EXPECT_EQ(f.link_names(), (std::vector<std::string>{"flange", "palm", "finger"}));
+  const Pose palm = f.link_transforms(vec({0.0})).at("palm");
+  EXPECT_TRUE(palm.translation().isApprox(Vector3d(0, 0, 0.05), 1e-12));
+  EXPECT_TRUE(palm.linear().isApprox(Eigen::AngleAxisd(0.7, Vector3d::UnitZ()).toRotationMatrix(), 1e-12));
+  // A wrist whose subtree holds an arm joint needs a DOF for it: the error names the joint.
+  try {
+    Hand::load(dir.write("upper.json", robot_spec("upper")));
+    ADD_FAILURE() << "no error for a hand that holds the elbow";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("joint 'elbow'"), std::string::npos) << e.what();
+  }
+  expect_file_error(dir.write("none.json", robot_spec("gripper")), {"wrist_link", "no link 'gripper'", "robot.urdf"});
+  // A hand joint that mimics an arm joint cannot be driven from the hand: named, not followed.
+  urdf = kRobotUrdf;
+  replace_in(urdf, "MIMIC", R"(<mimic joint="elbow" multiplier="0.01"/>)");
+  dir.write("robot.urdf", urdf);
+  expect_file_error((dir.path / "palm.json").string(),
+                    {"palm.json", "wrist_link", "joint 'slide'", "mimics joint 'elbow'", "above link 'palm'", "robot.urdf"});
 }
 
 TEST(HandUrdf, PackageUrisResolveThroughTheSearchPath) {
@@ -598,7 +659,7 @@ TEST(HandSpec, EveryFieldErrorNamesTheFileAndTheField) {
   const std::vector<Case> cases = {
       {"\"wrist_link\": \"bh_palm\",", "", {"wrist_link: missing field"}},
       {"\"wrist_link\": \"bh_palm\"", "\"wrist_link\": \"bh_wrist\"", {"wrist_link: no link 'bh_wrist'"}},
-      {"\"wrist_link\": \"bh_palm\"", "\"wrist_link\": \"bh_f1_prox\"", {"wrist_link:", "bh_j12"}},
+      {"\"wrist_link\": \"bh_palm\"", "\"wrist_link\": \"bh_f1_prox\"", {"wrist_link:", "mimics joint 'bh_j12'", "above link 'bh_f1_prox'"}},
       {"\"approach\": [0.0, 0.0, 1.0]", "\"approach\": \"up\"", {"approach: expected an array of 3 numbers"}},
       {"\"approach\": [0.0, 0.0, 1.0]", "\"approach\": [0, 0, 0]", {"approach: must be a non-zero vector"}},
       {"\"approach\": [0.0, 0.0, 1.0]", "\"approach\": [0, \"a\", 0]", {"approach[1]: expected a number"}},

@@ -212,3 +212,77 @@ def test_plan_errors_write_nothing(tmp_path, args, needle):
     assert needle in lines[0]
     assert not out.exists()
     assert not list(tmp_path.glob(".pairgrasp-*"))
+
+
+def _panda_spec(tmp_path, urdf=None):
+    """A hand spec for the Franka Panda's hand inside pybullet_data's whole-arm URDF (a robot
+    description as it usually comes; nothing cut out of it), or inside `urdf`."""
+    import pybullet_data
+    folder = pathlib.Path(pybullet_data.getDataPath()) / "franka_panda"
+    spec = {"name": "panda", "urdf": str(urdf or folder / "panda.urdf"), "package_paths": [str(folder)],
+            "wrist_link": "panda_hand", "approach": [0, 0, 1],
+            "dofs": [{"name": "opening", "joints": [{"joint": "panda_finger_joint1"}], "step": 0.01}],
+            "active_surfaces": [
+                {"link": "panda_leftfinger", "normal_cone": {"axis": [0, -1, 0], "half_angle_deg": 30}},
+                {"link": "panda_rightfinger", "normal_cone": {"axis": [0, 1, 0], "half_angle_deg": 30}}]}
+    path = tmp_path / ("panda.json" if urdf is None else "panda_cut.json")
+    path.write_text(json.dumps(spec))
+    return path
+
+
+def _cut_urdf(source, wrist, target):
+    """The subtree of `wrist` cut out of the URDF `source` by hand (ElementTree), written to `target`."""
+    import xml.etree.ElementTree as ET
+    robot = ET.parse(source).getroot()
+    joints = robot.findall("joint")
+    keep = {wrist}
+    while True:
+        more = {j.find("child").get("link") for j in joints if j.find("parent").get("link") in keep} - keep
+        if not more:
+            break
+        keep |= more
+    for e in list(robot):
+        if (e.tag == "link" and e.get("name") not in keep) or (
+                e.tag == "joint" and e.find("parent").get("link") not in keep):
+            robot.remove(e)
+    ET.ElementTree(robot).write(target)
+    return target
+
+
+def test_a_robots_whole_urdf_supplies_its_hand(tmp_path):
+    """wrist_link may be any link: the hand is its subtree, the arm's seven joints are ignored."""
+    h = pg.load_hand(str(_panda_spec(tmp_path)))
+    assert h.link_names[0] == "panda_hand"
+    assert not any(n.startswith("panda_link") for n in h.link_names)
+    assert h.joint_names == ["panda_finger_joint1", "panda_finger_joint2"]     # the second mimics the first
+    np.testing.assert_allclose([h.dof_lower[0], h.dof_upper[0]], [0.0, 0.04])
+    T = h.link_transforms([0.03])
+    gap = T["panda_leftfinger"][:3, 3] - T["panda_rightfinger"][:3, 3]
+    assert np.linalg.norm(gap) == pytest.approx(0.06, abs=1e-9)               # both fingers slide 3 cm
+    # The same hand as the hand-only URDF a user would cut out: same links, meshes and transforms.
+    import pybullet_data
+    whole = pathlib.Path(pybullet_data.getDataPath()) / "franka_panda" / "panda.urdf"
+    cut = pg.load_hand(str(_panda_spec(tmp_path, _cut_urdf(whole, "panda_hand", tmp_path / "hand_only.urdf"))))
+    assert cut.link_names == h.link_names and cut.joint_names == h.joint_names
+    for a, b in zip(h.links, cut.links):
+        np.testing.assert_array_equal(a.mesh.vertices, b.mesh.vertices)
+    for q in np.random.default_rng(7).uniform(h.dof_lower, h.dof_upper, size=(5, 1)):
+        Ta, Tb = h.link_transforms(q), cut.link_transforms(q)
+        for name in h.link_names:
+            np.testing.assert_allclose(Ta[name], Tb[name], atol=1e-12)
+
+
+@pytest.mark.slow
+def test_the_hand_inside_a_robot_plans_simulates_and_draws(tmp_path):
+    out = tmp_path / "out"
+    r = run("plan", "--hand", str(_panda_spec(tmp_path)), "--target", str(MODELS / "targets" / "box.stl"),
+            "--top", "2", "--seed", "1", "--pictures", "1", "-o", str(out))
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((out / "grasps.json").read_text())
+    assert any(g["force_closure"] for g in doc["grasps"])
+    assert {c["link"] for g in doc["grasps"] for c in g["contacts"]} <= {"panda_hand", "panda_leftfinger",
+                                                                          "panda_rightfinger"}
+    assert doc["pictures"] and all((out / p).exists() for p in doc["pictures"])
+    r = run("simulate", str(out / "grasps.json"), "--top", "1", "--trials", "1")
+    assert r.returncode == 0, r.stderr
+    assert "held" in r.stdout

@@ -60,7 +60,9 @@ def test_barrett_attributes(barrett):
     np.testing.assert_allclose(h.dof_step, [0.25] * 4)
     assert h.wrist_link == "bh_palm"
     np.testing.assert_allclose(h.approach, [0, 0, 1])
-    np.testing.assert_allclose(h.root_to_wrist, np.eye(4))
+    with pytest.warns(DeprecationWarning, match="root_to_wrist"):   # the hand is rooted at its wrist
+        np.testing.assert_allclose(h.root_to_wrist, np.eye(4))
+    assert h.link_names[0] == h.wrist_link
     assert len(h.joint_names) == 8
     assert [l.name for l in h.links if l.active] == [
         "bh_palm", "bh_f1_prox", "bh_f1_dist", "bh_f2_prox", "bh_f2_dist", "bh_f3_prox", "bh_f3_dist"]
@@ -316,7 +318,7 @@ def test_joints_rebuild_forward_kinematics(spec):
     for _ in range(5):
         dofs = rng.uniform(h.dof_lower, h.dof_upper)
         q = h.joint_values(dofs)
-        pose = {h.link_names[0]: np.linalg.inv(h.root_to_wrist)}
+        pose = {h.link_names[0]: np.eye(4)}            # the wrist link is the hand's root
         for j in joints:
             pose[j.child_link] = pose[j.parent_link] @ j.origin @ _joint_motion(j, q.get(j.name, 0.0))
         T = h.link_transforms(dofs)

@@ -187,10 +187,8 @@ def test_scene_kinematics_match_the_hand(jaw_sim, box):
         for name, v in h.joint_values(dofs).items():
             d.qpos[m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)]] = v
         mujoco.mj_kinematics(m, d)
-        wrist = np.asarray(h.root_to_wrist)          # the world is the URDF root frame
-        for name, T in h.link_transforms(dofs).items():
+        for name, want in h.link_transforms(dofs).items():   # the world is the wrist link's frame
             b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
-            want = wrist @ T
             np.testing.assert_allclose(d.xpos[b], want[:3, 3], atol=1e-9)
             np.testing.assert_allclose(d.xmat[b].reshape(3, 3), want[:3, :3], atol=1e-9)
         # the equality constraints hold at the joint values the hand computes

@@ -4,8 +4,9 @@
 /// the active (contact) surface of each link and the approach direction.
 ///
 /// Frames: every pose returned here is expressed in the **wrist frame** (the spec's
-/// `wrist_link`), not the URDF root. `Hand::root_to_wrist()` gives the fixed offset between them
-/// (the wrist must be attached to the URDF root through fixed joints only).
+/// `wrist_link`), which may be any link of the URDF: the hand is the wrist's subtree, so a robot's
+/// whole URDF can supply its hand; the links above the wrist (an arm, a mount) and their joints
+/// are ignored and their meshes not read.
 ///
 /// The spec format is documented in models/README.md ("Hand spec format").
 #include <pairgrasp/mesh.hpp>
@@ -127,12 +128,13 @@ class Hand {
   Eigen::VectorXd dof_lower() const;
   Eigen::VectorXd dof_upper() const;
   Eigen::VectorXd dof_step() const;
-  /// Links with geometry, in a fixed order: depth-first from the URDF root, children in the
+  /// Links with geometry, in a fixed order: depth-first from the wrist link, children in the
   /// order their joints appear in the URDF file.
   const std::vector<HandLink>& links() const;
   /// Index of a link in links(), or -1 when it has no geometry or does not exist.
   int link_index(const std::string& link_name) const;
-  /// Every URDF link (with or without geometry), in the same depth-first order.
+  /// Every link of the hand (the wrist link's subtree, with or without geometry), in the same
+  /// depth-first order.
   std::vector<std::string> link_names() const;
   /// The URDF joints, fixed ones included, depth-first from the root like link_names() (the
   /// parent joint of every link but the root, in that link's order).
@@ -144,8 +146,8 @@ class Hand {
   const std::string& wrist_link() const;
   /// Approach direction in the wrist frame (unit): the direction the palm faces.
   const Eigen::Vector3d& approach() const;
-  /// Pose of the wrist frame in the URDF root frame (fixed: identity when the wrist is the root).
-  Pose root_to_wrist() const;
+  /// Identity: the hand is rooted at its wrist link (the wrist's subtree).
+  [[deprecated("the hand is rooted at its wrist link, so this is always the identity")]] Pose root_to_wrist() const;
   /// Names of every non-fixed URDF joint (mimic joints included), in the order joint_values()
   /// uses: depth-first from the root like link_names().
   std::vector<std::string> joint_names() const;
