@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import json
 import math
 import os
 import shutil
@@ -248,6 +249,33 @@ def _cmd_simulate(args) -> int:
     return 0
 
 
+def _cmd_hand(args) -> int:
+    import pairgrasp as pg
+
+    if args.hand_command == "init":
+        spec = pg.propose_spec(args.urdf, args.wrist, package_paths=args.package_path or (), name=args.name)
+        text = json.dumps(spec, indent=2) + "\n"
+        if args.output is None:
+            sys.stdout.write(text)
+            return 0
+        if os.path.exists(args.output) and not args.force:
+            raise ValueError(f"-o: {args.output} exists (--force replaces it)")
+        tmp = f"{args.output}.part"
+        with open(tmp, "w") as f:
+            f.write(text)
+        os.replace(tmp, args.output)
+        print(f"wrote {args.output}: {len(spec['dofs'])} DOFs ({', '.join(d['name'] for d in spec['dofs'])}), "
+              f"approach {_fmt_vec(spec['approach'])}, active links "
+              f"{', '.join(a['link'] for a in spec['active_surfaces'])}; check it with: pairgrasp hand show "
+              f"{args.output} -o hand.png")
+        return 0
+    hand = pg.load_hand(args.spec)
+    if not args.output.lower().endswith(".png"):
+        raise ValueError(f"-o: expected a .png file, got {args.output}")
+    print(pg.draw_hand(hand, args.output))
+    return 0
+
+
 def _cmd_view(args) -> int:
     from . import view
 
@@ -436,6 +464,23 @@ def build_parser() -> argparse.ArgumentParser:
     simu.add_argument("--no-picture", action="store_true", help="do not draw simulation.png")
     simu.add_argument("--quiet", action="store_true", help="no progress bar")
     simu.set_defaults(func=_cmd_simulate)
+    hand = sub.add_parser("hand", help="propose a hand spec from a URDF (init), draw a spec's hand (show)")
+    hand_sub = hand.add_subparsers(dest="hand_command", parser_class=_Parser)
+    hand_sub.required = True
+    init = hand_sub.add_parser("init", help="propose a hand spec for the hand below a link of a URDF (a robot's "
+                               "whole URDF will do): DOFs, approach, active surfaces")
+    init.add_argument("urdf", metavar="URDF", help="the URDF file")
+    init.add_argument("--wrist", required=True, metavar="LINK", help="the wrist link: the hand is its subtree")
+    init.add_argument("--package-path", action="append", metavar="DIR",
+                      help="a folder for package:// mesh URIs (repeatable; the URDF's folder and its parent are tried "
+                      "after them)")
+    init.add_argument("--name", help="the hand's name (default: the URDF's robot name)")
+    init.add_argument("-o", "--output", metavar="SPEC.json", help="write the spec there (default: print it)")
+    init.add_argument("--force", action="store_true", help="replace -o if it exists")
+    show = hand_sub.add_parser("show", help="draw a hand open, at mid-range and closed with its active faces coloured")
+    show.add_argument("spec", metavar="SPEC", help="hand spec (JSON)")
+    show.add_argument("-o", "--output", required=True, metavar="FILE.png", help="the picture to write")
+    hand.set_defaults(func=_cmd_hand)
     view = sub.add_parser("view", help="turn planned grasps around in the browser (viser), or write the scene "
                           "as a glTF file")
     view.add_argument("grasps", metavar="GRASPS", help="grasps.json written by plan")

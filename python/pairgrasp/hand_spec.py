@@ -1,0 +1,273 @@
+"""A hand spec proposed from a URDF, and a picture to check one (``pairgrasp hand init`` and
+``pairgrasp hand show``).
+
+The proposal (:func:`propose_spec`) reads the hand as the planner will (the wrist link's subtree,
+through :func:`pairgrasp.load_hand`) and derives:
+
+* **DOFs**: one per moving joint that is not a ``<mimic>`` (mimics follow their master), over the
+  joint's URDF limits, with the planner's default step. A coupling the URDF does not state (the
+  Barrett spread turns two knuckles through one motor) is one edit away: merge the two DOFs into
+  one with a ``ratio`` per joint.
+* **Approach**: from the wrist link's centroid towards the centroid of the links that move, at
+  mid-range, rounded to a frame axis when within 10 degrees of one.
+* **Active surfaces**: the links a *closing* joint moves (a joint whose axis, in the wrist frame at
+  mid-range, is more than 45 degrees from the approach: it swings or slides a finger across the
+  approach rather than spinning it about it), each with the faces whose outward normals face the
+  grasp centre at mid-range (the centroid of the moving links), written as a normal cone about
+  their mean normal; and the palm (the wrist link's faces towards the approach) when closing brings
+  the fingers down towards it.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+import xml.etree.ElementTree as ET
+from typing import Dict, List, Optional, Sequence
+
+import numpy as np
+
+_MOVING = ("revolute", "continuous", "prismatic")
+_CLOSING_AXIS_COS = math.cos(math.radians(45.0))   # a joint axis farther than this from the approach closes
+_LEADING_COS = math.cos(math.radians(60.0))        # a face moving within this of its normal leads the closing
+_SNAP_COS = math.cos(math.radians(10.0))           # an approach this near a frame axis becomes that axis
+_PALM_CONE_DEG = 10.0
+
+
+def _urdf_subtree(urdf: str, wrist: str):
+    """(moving joints that are not mimics, links with geometry) of the wrist's subtree, in file
+    order, read from the URDF's structure only (the hand itself is loaded by pairgrasp.load_hand)."""
+    try:
+        robot = ET.parse(urdf).getroot()
+    except (OSError, ET.ParseError) as e:
+        raise ValueError(f"{urdf}: cannot read the URDF: {e}") from None
+    links = {l.get("name"): l for l in robot.findall("link")}
+    if wrist not in links:
+        raise ValueError(f"{urdf}: --wrist: no link '{wrist}'")
+    joints = robot.findall("joint")
+    keep, frontier = {wrist}, [wrist]
+    while frontier:
+        parent = frontier.pop()
+        for j in joints:
+            p, c = j.find("parent"), j.find("child")
+            if p is not None and c is not None and p.get("link") == parent and c.get("link") not in keep:
+                keep.add(c.get("link"))
+                frontier.append(c.get("link"))
+    driven = [j.get("name") for j in joints
+              if j.get("type") in _MOVING and j.find("parent") is not None and j.find("parent").get("link") in keep
+              and j.find("mimic") is None]
+    geometric = [n for n in links if n in keep
+                 and (links[n].find("collision") is not None or links[n].find("visual") is not None)]
+    if not driven:
+        raise ValueError(f"{urdf}: the hand below '{wrist}' has no moving joint (nothing to close)")
+    if not geometric:
+        raise ValueError(f"{urdf}: the hand below '{wrist}' has no link with geometry")
+    return driven, geometric
+
+
+def _load(spec: dict, package_paths: Sequence[str]):
+    import pairgrasp as pg
+
+    fd, path = tempfile.mkstemp(suffix=".json", prefix="pairgrasp-hand-")
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(spec, f)
+        return pg.load_hand(path, package_paths=list(package_paths))
+    finally:
+        os.remove(path)
+
+
+def _world_meshes(hand, dofs):
+    """Per link with geometry: (vertices in the wrist frame, faces, face normals, face areas, face centroids)."""
+    out = {}
+    for link, T in zip(hand.links, np.asarray(hand.link_poses(np.asarray(dofs, float)))):
+        v = np.asarray(link.mesh.vertices, float) @ T[:3, :3].T + T[:3, 3]
+        f = np.asarray(link.mesh.faces, int)
+        if len(f) == 0:
+            continue
+        tri = v[f]
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        area = np.linalg.norm(n, axis=1) / 2
+        n = n / np.maximum(2 * area, 1e-300)[:, None]
+        out[link.name] = dict(T=T, normals=n, areas=area, centroids=tri.mean(axis=1))
+    return out
+
+
+def _centroid(m):
+    w = m["areas"]
+    return (m["centroids"] * w[:, None]).sum(axis=0) / max(w.sum(), 1e-300)
+
+
+def _snap(v):
+    v = v / np.linalg.norm(v)
+    k = int(np.argmax(np.abs(v)))
+    if abs(v[k]) >= _SNAP_COS:
+        e = np.zeros(3)
+        e[k] = math.copysign(1.0, v[k])
+        return e
+    return v
+
+
+def _round(v, digits=4):
+    return [round(float(x), digits) + 0.0 for x in v]
+
+
+def propose_spec(urdf: str, wrist: str, package_paths: Sequence[str] = (), name: Optional[str] = None) -> dict:
+    """A hand spec (a dict, as the JSON file holds it) for the hand below link ``wrist`` of the URDF
+    at ``urdf``, derived as the module documents. ``package_paths`` resolve ``package://`` mesh URIs
+    (the URDF's folder and its parent are tried after them). Raises ValueError naming the problem
+    (no such link, no moving joint, no link with geometry, no face facing the grasp) and
+    pairgrasp.FileError for a URDF the loader refuses."""
+    urdf = os.path.abspath(urdf)
+    folder = os.path.dirname(urdf)
+    paths = [os.path.abspath(p) for p in package_paths] + [folder, os.path.dirname(folder)]
+    driven, geometric = _urdf_subtree(urdf, wrist)
+    base = {"urdf": urdf, "package_paths": paths, "wrist_link": wrist, "approach": [0, 0, 1],
+            "dofs": [{"name": j, "joints": [{"joint": j}]} for j in driven],
+            "active_surfaces": [{"link": l, "normal_cone": {"axis": [0, 0, 1], "half_angle_deg": 180}}
+                                for l in geometric]}
+    if name:
+        base["name"] = name
+    hand = _load(base, paths)
+    lo, hi = np.asarray(hand.dof_lower, float), np.asarray(hand.dof_upper, float)
+    mid = (lo + hi) / 2
+    at_mid = _world_meshes(hand, mid)
+    poses = {n: T for n, T in hand.link_transforms(mid).items()}
+
+    # Which links each DOF moves (their pose changes between its limits, the others at mid-range).
+    moved: Dict[str, set] = {}
+    for d in range(len(mid)):
+        a, b = mid.copy(), mid.copy()
+        a[d], b[d] = lo[d], hi[d]
+        Ta, Tb = hand.link_transforms(a), hand.link_transforms(b)
+        moved[hand.dof_names[d]] = {n for n in at_mid if not np.allclose(Ta[n], Tb[n], atol=1e-9)}
+    moving = set().union(*moved.values())
+    if not moving:
+        raise ValueError(f"{urdf}: no link with geometry moves below '{wrist}'")
+    centre = np.mean([_centroid(at_mid[n]) for n in sorted(moving)], axis=0)
+    wrist_centroid = _centroid(at_mid[wrist]) if wrist in at_mid else np.zeros(3)
+    if np.linalg.norm(centre - wrist_centroid) < 1e-9:
+        raise ValueError(f"{urdf}: cannot tell the approach: the moving links are centred on the wrist link")
+    approach = _snap(centre - wrist_centroid)
+
+    # Closing joints: axis (wrist frame, mid-range) far from the approach.
+    joints = {j.name: j for j in hand.joints}
+    closing_dofs = []
+    for d, jname in enumerate(driven):
+        j = joints[jname]
+        axis = poses[j.parent_link][:3, :3] @ np.asarray(j.origin, float)[:3, :3] @ np.asarray(j.axis, float)
+        if abs(float(axis @ approach)) < _CLOSING_AXIS_COS:
+            closing_dofs.append(d)
+    fingers = set().union(*(moved[hand.dof_names[d]] for d in closing_dofs)) if closing_dofs else set()
+    if not fingers:
+        raise ValueError(f"{urdf}: no joint below '{wrist}' closes across the approach {_round(approach, 3)}")
+
+    surfaces = []
+    axis_point = wrist_centroid
+
+    def radius(m, n):  # distance of link n's centroid from the approach axis through the wrist
+        r = _centroid(m[n]) - axis_point
+        return float(np.linalg.norm(r - (r @ approach) * approach))
+
+    # The palm: when closing brings the fingers down towards it (their mean height along the
+    # approach drops by a quarter from the open to the closed end of the closing DOFs).
+    q0 = lo + 0.25 * (hi - lo)           # partly open: the fingers still surround the grasp
+    at_q0 = _world_meshes(hand, q0)
+    leading: Dict[str, np.ndarray] = {n: np.zeros(len(at_q0[n]["areas"]), bool) for n in fingers}
+    for d in closing_dofs:
+        step = 1e-4 * max(hi[d] - lo[d], 1e-3)
+        q = q0.copy()
+        q[d] += step
+        after = _world_meshes(hand, q)
+        links = [n for n in moved[hand.dof_names[d]] if n in fingers]
+        # Closing moves the link the joint carries in towards the approach axis (its farther
+        # links may already reach across it).
+        child = joints[driven[d]].child_link
+        near = [child] if child in links else links
+        sign = -math.copysign(1.0, sum(radius(after, n) - radius(at_q0, n) for n in near) or 1.0)
+        for n in links:
+            v = sign * (after[n]["centroids"] - at_q0[n]["centroids"]) / step
+            speed = np.linalg.norm(v, axis=1)
+            leading[n] |= (speed > 1e-9) & (np.einsum("ij,ij->i", v, at_q0[n]["normals"]) >= _LEADING_COS * speed)
+    if wrist in at_mid:
+        heights = []
+        for end in (lo, hi):
+            q = mid.copy()
+            q[closing_dofs] = end[closing_dofs]
+            m = _world_meshes(hand, q)
+            heights.append(np.mean([_centroid(m[n]) @ approach for n in fingers]) - wrist_centroid @ approach)
+        top, bottom = max(heights), min(heights)
+        palm = at_mid[wrist]
+        if top > 0 and bottom < 0.75 * top and np.any(palm["normals"] @ approach >= math.cos(math.radians(_PALM_CONE_DEG))):
+            surfaces.append({"link": wrist, "normal_cone": {"axis": _round(approach), "half_angle_deg": _PALM_CONE_DEG}})
+    for link in [n for n in geometric if n in fingers]:
+        m, lead = at_q0[link], leading[link]
+        if not lead.any():
+            continue
+        mean = (m["normals"][lead] * m["areas"][lead, None]).sum(axis=0)
+        if np.linalg.norm(mean) < 1e-12:
+            continue
+        mean /= np.linalg.norm(mean)
+        axis_link = _snap(m["T"][:3, :3].T @ mean)                      # into the link frame
+        spread = np.degrees(np.arccos(np.clip((m["normals"][lead] @ m["T"][:3, :3]) @ axis_link, -1, 1)))
+        half = float(np.clip(np.percentile(spread, 90) + 5.0, 10.0, 60.0))
+        surfaces.append({"link": link, "normal_cone": {"axis": _round(axis_link), "half_angle_deg": round(half, 1)}})
+    if not surfaces:
+        raise ValueError(f"{urdf}: no face of the moving links faces the grasp centre at mid-range")
+
+    spec = {"name": name or hand.name, "urdf": urdf, "package_paths": paths, "wrist_link": wrist,
+            "approach": _round(approach),
+            "dofs": [{"name": j, "joints": [{"joint": j}]} for j in driven],
+            "active_surfaces": surfaces}
+    _load(spec, paths)      # the proposal loads as it is written
+    return spec
+
+
+def draw_hand(hand, path: str, title: str = "") -> str:
+    """Writes a PNG of ``hand`` open, at mid-range and closed (each DOF at the limit its closing
+    direction leads away from, midway, at the limit it leads to; DOFs that do not close at mid-range),
+    with its active faces coloured and the approach drawn from the wrist. Returns ``path``."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    from . import _core
+    from .render import CONTACT_COLOR, HAND_COLOR, _pyplot, _save, _shade
+
+    lo, hi = np.asarray(hand.dof_lower, float), np.asarray(hand.dof_upper, float)
+    mid = (lo + hi) / 2
+    dirs = np.asarray(_core.closing_directions(hand, mid), int).reshape(-1)
+    opened = np.where(dirs > 0, lo, np.where(dirs < 0, hi, mid))
+    closed = np.where(dirs > 0, hi, np.where(dirs < 0, lo, mid))
+    configs = (("open", opened), ("mid-range", mid), ("closed", closed))
+    plt = _pyplot()
+    fig = plt.figure(figsize=(15.0, 5.0), dpi=100)
+    for k, (label, q) in enumerate(configs):
+        tris, cols = [], []
+        for link, T in zip(hand.links, np.asarray(hand.link_poses(q))):
+            v = np.asarray(link.mesh.vertices, float) @ T[:3, :3].T + T[:3, 3]
+            t = v[np.asarray(link.mesh.faces, int)] * 1000.0
+            if len(t) == 0:
+                continue
+            n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+            n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+            active = np.zeros(len(t), bool)
+            active[np.asarray(link.active_faces, int)] = True
+            cols.append(np.where(active[:, None], _shade(n, CONTACT_COLOR), _shade(n, HAND_COLOR)))
+            tris.append(t)
+        tris, cols = np.concatenate(tris), np.concatenate(cols)
+        lo3, hi3 = tris.reshape(-1, 3).min(axis=0), tris.reshape(-1, 3).max(axis=0)
+        c, half = (lo3 + hi3) / 2, (hi3 - lo3).max() / 2 * 1.05
+        ax = fig.add_subplot(1, 3, k + 1, projection="3d")
+        ax.add_collection3d(Poly3DCollection(tris, facecolors=cols, edgecolors=(0.1, 0.1, 0.2, 0.25), linewidths=0.2))
+        a = np.asarray(hand.approach, float) * half
+        ax.quiver(0, 0, 0, a[0], a[1], a[2], color="tab:blue", linewidth=1.5)
+        for setter, x in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), c):
+            setter(x - half, x + half)
+        ax.set_box_aspect((1, 1, 1))
+        ax.view_init(elev=20, azim=-60)
+        ax.set_title(f"{label}: " + ", ".join(f"{n} {x:.3g}" for n, x in zip(hand.dof_names, q)), fontsize=7)
+        ax.tick_params(labelsize=6)
+    fig.suptitle(title or f"{hand.name}: active faces red, approach blue (mm, wrist frame)", fontsize=9)
+    _save(fig, path)
+    plt.close(fig)
+    return path
