@@ -45,8 +45,8 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import objects as objset  # noqa: E402
-from bench_scenes import (HANDS, bootstrap_mean, hands_and_modes, load_runs, pairgrasp_cmd, plan_command,  # noqa: E402
-                          prepare, reason_without_grasp, run_cmd)
+from bench_scenes import (HANDS, THIRD_PARTY_HANDS, bootstrap_mean, hands_and_modes, load_runs,  # noqa: E402
+                          pairgrasp_cmd, plan_command, prepare, propose_third_party, reason_without_grasp, run_cmd)
 
 MODES = ("free", "support")
 from bench_scenes import SEED  # noqa: E402  (the plan and the trials use the scene benchmark's seed)
@@ -350,6 +350,9 @@ def main(argv=None):
     args = ap.parse_args(argv)
     hands, modes = hands_and_modes(ap, args.hands, args.modes, MODES)
     os.makedirs(args.out, exist_ok=True)
+    for h in hands:
+        if h in THIRD_PARTY_HANDS:
+            propose_third_party(h, args.out)
     runs_path = os.path.join(args.out, "runs.jsonl")
     done = load_runs(runs_path)
     if not args.table:

@@ -1,7 +1,7 @@
 """Objects on a table: plan and simulate each object of bench/objects.txt resting on a table, and free.
 
     python bench/bench_scenes.py -o OUT [--split test|dev|all] [--limit N]
-        [--hands barrett,parallel_jaw] [--modes support,mesh,free] [--jobs N] [--threads T]
+        [--hands barrett,parallel_jaw,panda,pr2_gripper] [--modes support,mesh,free] [--jobs N] [--threads T]
         [--repeat K] [--timeout S] [--markdown FILE] [--retry-errors]
 
 For each object of the split (bench/objects.py: third-party meshes of ``pybullet_data``, scaled to
@@ -57,6 +57,27 @@ HANDS = {
     "barrett": os.path.join(ROOT, "models", "barrett", "barrett.json"),
     "parallel_jaw": os.path.join(ROOT, "models", "parallel_jaw", "parallel_jaw.json"),
 }
+# Third-party hands, (URDF inside pybullet_data, wrist link): their specs are proposed by
+# pairgrasp.propose_spec, unedited, into OUT/hands/ when first asked for (docs/hands.md).
+THIRD_PARTY_HANDS = {
+    "panda": ("franka_panda/panda.urdf", "panda_hand"),      # the whole arm's URDF
+    "pr2_gripper": ("pr2_gripper.urdf", "gripper_pole"),
+}
+
+
+def propose_third_party(name, out):
+    """Writes OUT/hands/<name>.json, the proposed spec of a THIRD_PARTY_HANDS hand, and registers it in HANDS."""
+    import pybullet_data
+
+    import pairgrasp as pg
+
+    urdf, wrist = THIRD_PARTY_HANDS[name]
+    path = os.path.join(out, "hands", f"{name}.json")
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with open(path, "w") as f:
+        json.dump(pg.propose_spec(os.path.join(pybullet_data.getDataPath(), urdf), wrist, name=name), f, indent=2)
+    HANDS[name] = path
+    return path
 MODES = ("support", "mesh", "free")
 TABLE_MODES = ("support", "mesh")
 TALL = 0.05            # m: the "taller than 5 cm at rest" subset
@@ -299,8 +320,8 @@ def hands_and_modes(ap, hands_arg: str, modes_arg: str, known_modes):
     hands = [h for h in hands_arg.split(",") if h]
     modes = [m for m in modes_arg.split(",") if m]
     for h in hands:
-        if h not in HANDS:
-            ap.error(f"unknown hand {h!r} (one of {', '.join(HANDS)})")
+        if h not in HANDS and h not in THIRD_PARTY_HANDS:
+            ap.error(f"unknown hand {h!r} (one of {', '.join(list(HANDS) + list(THIRD_PARTY_HANDS))})")
     for m in modes:
         if m not in known_modes:
             ap.error(f"unknown mode {m!r} (one of {', '.join(known_modes)})")
@@ -343,6 +364,9 @@ def main(argv=None):
 
     hands, modes = hands_and_modes(ap, args.hands, args.modes, MODES)
     threads = args.threads or max(1, (os.cpu_count() or 1) // max(1, args.jobs))
+    for h in hands:
+        if h in THIRD_PARTY_HANDS:
+            propose_third_party(h, args.out)
 
     objs = objset.load_objects(None if args.split == "all" else args.split)
     if args.limit is not None:

@@ -5,11 +5,13 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <pairgrasp/candidates.hpp>
 #include <pairgrasp/collision.hpp>
 #include <pairgrasp/free_surface.hpp>
 #include <pairgrasp/types.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdint>
 #include <limits>
 #include <optional>
@@ -160,4 +162,24 @@ void bind_collision(pyb::module_& m);  // bind_collision.cpp: GraspChecker, clos
 void bind_quality(pyb::module_& m);    // bind_quality.cpp: contact wrenches, grasp quality (epsilon)
 void bind_planning(pyb::module_& m);   // bind_planning.cpp: evaluate_grasp, fine_tune, CandidatePipeline, GraspPlanner
 void bind_search(pyb::module_& m);     // bind_search.cpp: GraspSearch, plan_samples
+/// The deadline `seconds` from now (negative: now), or none.
+inline std::optional<std::chrono::steady_clock::time_point> deadline_after(std::optional<double> seconds) {
+  if (!seconds) return std::nullopt;
+  return std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                std::chrono::duration<double>(std::max(0.0, *seconds)));
+}
+
+/// Runs `finish(&timings)` without the GIL; returns (grasps, {'fine_tune', 'robust'} seconds).
+template <class Finish>
+pyb::tuple finish_released(Finish&& finish) {
+  FinishTimings t;
+  std::vector<RankedGrasp> grasps;
+  {
+    pyb::gil_scoped_release release;
+    grasps = finish(&t);
+  }
+  using namespace pybind11::literals;
+  return pyb::make_tuple(grasps, pyb::dict("fine_tune"_a = t.fine_tune, "robust"_a = t.robust));
+}
+
 }  // namespace pairgrasp::py

@@ -8,7 +8,6 @@
 #include <pairgrasp/robust.hpp>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <map>
 #include <optional>
@@ -542,17 +541,8 @@ void bind_planning(pyb::module_& m) {
             o.rank = ranking_from_string(rank);
             o.robust.samples = robust_samples;
             o.rank_pool = rank_pool_arg(rank_pool, robust_pool);
-            if (time_left)
-              o.deadline = std::chrono::steady_clock::now() +
-                           std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                               std::chrono::duration<double>(std::max(0.0, *time_left)));
-            FinishTimings t;
-            std::vector<RankedGrasp> grasps;
-            {
-              pyb::gil_scoped_release release;
-              grasps = p.finish(o, &t);
-            }
-            return pyb::make_tuple(grasps, pyb::dict("fine_tune"_a = t.fine_tune, "robust"_a = t.robust));
+            o.deadline = deadline_after(time_left);
+            return finish_released([&](FinishTimings* t) { return p.finish(o, t); });
           },
           "top"_a, "fine_tune"_a, "fine_tune_iterations"_a, "seed"_a, "time_left"_a = pyb::none(),
           "rank"_a = to_string(FinishOptions().rank), "robust_samples"_a = RobustOptions().samples,

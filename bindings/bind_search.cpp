@@ -103,17 +103,8 @@ void bind_search(pyb::module_& m) {
       .def(
           "finish",
           [](const GraspSearch& s, std::optional<double> time_left) {
-            std::optional<std::chrono::steady_clock::time_point> deadline;
-            if (time_left)
-              deadline = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                                 std::chrono::duration<double>(std::max(0.0, *time_left)));
-            FinishTimings t;
-            std::vector<RankedGrasp> grasps;
-            {
-              pyb::gil_scoped_release release;
-              grasps = s.finish(deadline, &t);
-            }
-            return pyb::make_tuple(grasps, pyb::dict("fine_tune"_a = t.fine_tune, "robust"_a = t.robust));
+            const auto deadline = deadline_after(time_left);
+            return finish_released([&](FinishTimings* t) { return s.finish(deadline, t); });
           },
           "time_left"_a = pyb::none(),
           "Rank the evaluated candidates, fine-tune the best (no trial starts after time_left seconds) and return "
