@@ -286,3 +286,8 @@ def test_the_hand_inside_a_robot_plans_simulates_and_draws(tmp_path):
     r = run("simulate", str(out / "grasps.json"), "--top", "1", "--trials", "1")
     assert r.returncode == 0, r.stderr
     assert "held" in r.stdout
+    r = run("view", str(out / "grasps.json"), "--export", str(tmp_path / "scene.glb"))
+    assert r.returncode == 0, r.stderr
+    trimesh = pytest.importorskip("trimesh")
+    names = set(trimesh.load(str(tmp_path / "scene.glb"), force="scene").geometry)
+    assert not any("panda_link" in n for n in names) and any("leftfinger" in n for n in names), names
