@@ -164,7 +164,7 @@ const char* mode_name(ConstellationMode m) { return m == ConstellationMode::Area
 const char* const kPlannerOptionsDoc =
     "Options (keywords, as C++ PlannerOptions; None: derived): edge (m), d_max (m; None: the hand's span + edge), "
     "max_pairs, constellation ('auto', 'per_link', 'area'), spacing (m), max_area_samples, depth_tolerance (m; None: "
-    "edge / 4), gap (m), field_cell (m; None: edge / 5), max_field_bytes (2 GiB), backoff (m; None: half the "
+    "edge / 4), gap (m), field_cell (m; None: max(edge / 5, 1 mm)), max_field_bytes (2 GiB), backoff (m; None: half the "
     "hand's reach; a GraspSearch may use another), threads (0: every core).";
 
 }  // namespace

@@ -230,7 +230,9 @@ PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& f
   }
   s.depth_tolerance = o.depth_tolerance ? *o.depth_tolerance : s.edge / 4.0;
   s.backoff = o.backoff ? *o.backoff : s.reach / 2.0;
-  s.field_cell = o.field_cell ? *o.field_cell : s.edge / 5.0;
+  // h / 5, not finer than 1 mm: coarser fields for coarse (large) targets, and below h = 5 mm the
+  // cell every plan used before the cell followed h (a finer one costs memory and moved grasps).
+  s.field_cell = o.field_cell ? *o.field_cell : std::max(s.edge / 5.0, 0.001);
   return s;
 }
 

@@ -34,7 +34,7 @@ struct Args {
   std::string hand, target, paint, out, support;  // support: "", "auto" or a height (m)
   std::vector<std::string> obstacles, occluders;
   double step = 0.0;  // 0: the hand's steps
-  double field_cell = 0.0;  // 0: derived (the edge / 5)
+  double field_cell = 0.0;  // 0: derived (edge / 5, at least 1 mm)
   int top = 10;
   unsigned long seed = 0;
   int threads = 0;

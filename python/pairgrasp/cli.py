@@ -387,7 +387,7 @@ def _add_target_options(p, threads_help="worker threads (default 0: every core)"
     p.add_argument("--step", type=_positive_float, help="DOF sampling step (rad; default the hand's)")
     p.add_argument("--edge", type=_positive_float, help="unit-facet edge h (m; default automatic)")
     p.add_argument("--field-cell", type=_positive_float, metavar="M",
-                   help="cell of the collision checker's distance fields (m; default h/5, 1 mm at h = 5 mm)")
+                   help="cell of the collision checker's distance fields (m; default h/5 but at least 1 mm)")
     p.add_argument("--max-field-memory", type=_positive_float, metavar="GB",
                    help="refuse a target whose distance fields would take more (default 2 GB)")
     p.add_argument("--time-limit", type=_positive_float, metavar="S",

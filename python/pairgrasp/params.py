@@ -54,8 +54,8 @@ class PlanParams:
             force closure is rare gets more pose hypotheses from the alignments already made.
         depth_tolerance: penetration tolerated (m); None: h / 4.
         gap: contact gap (m).
-        field_cell: cell edge of the grasp checker's distance fields (m); None: h / 5 (1 mm at the
-            default 5 mm edge), so their error keeps its ratio to the depth tolerance.
+        field_cell: cell edge of the grasp checker's distance fields (m); None: h / 5 but at least
+            1 mm (1 mm at the default 5 mm edge and on small targets, coarser when h is coarser).
         max_field_memory: budget of those fields (GB), checked on an estimate before they are
             built: a target over it is refused at once, naming this field.
         backoff: largest back-off along the approach axis when settling (m); None: the hand's

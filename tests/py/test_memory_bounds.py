@@ -188,6 +188,7 @@ def test_field_cell_follows_the_edge_and_can_be_set():
     mesh = pg.load_mesh(str(FLASK))
     assert pg.resolve_planner(hand, mesh, edge=0.005).field_cell == pytest.approx(0.001)
     assert pg.resolve_planner(hand, mesh, edge=0.008).field_cell == pytest.approx(0.0016)
+    assert pg.resolve_planner(hand, mesh, edge=0.004).field_cell == pytest.approx(0.001)   # not below 1 mm
     assert pg.resolve_planner(hand, mesh, edge=0.008, field_cell=0.002).field_cell == 0.002
     with pytest.raises(ValueError, match="field_cell"):
         pg.resolve_planner(hand, mesh, field_cell=0.0)

@@ -53,8 +53,8 @@ struct PlannerOptions {
   /// (PlanOptions::backoff); unset: half the hand's reach (the largest distance of a per-link
   /// constellation sample from the wrist).
   std::optional<double> backoff;
-  /// Cell edge of the checker's distance fields (m; CheckOptions::field_cell); unset: h / 5 (1 mm
-  /// at the default 5 mm edge), so that the fields' error keeps its ratio to the depth tolerance.
+  /// Cell edge of the checker's distance fields (m; CheckOptions::field_cell); unset: h / 5 but at
+  /// least 1 mm (1 mm at the default 5 mm edge and on smaller targets; coarser when h is coarser).
   std::optional<double> field_cell;
   /// Memory budget of the target's distance fields (bytes), checked on an estimate before they
   /// are built (BudgetError past it).
