@@ -133,7 +133,7 @@ def propose_spec(urdf: str, wrist: str, package_paths: Sequence[str] = (), name:
     lo, hi = np.asarray(hand.dof_lower, float), np.asarray(hand.dof_upper, float)
     mid = (lo + hi) / 2
     at_mid = _world_meshes(hand, mid)
-    poses = {n: T for n, T in hand.link_transforms(mid).items()}
+    poses = hand.link_transforms(mid)
 
     # Which links each DOF moves (their pose changes between its limits, the others at mid-range).
     moved: Dict[str, set] = {}
@@ -170,8 +170,7 @@ def propose_spec(urdf: str, wrist: str, package_paths: Sequence[str] = (), name:
         r = _centroid(m[n]) - axis_point
         return float(np.linalg.norm(r - (r @ approach) * approach))
 
-    # The palm: when closing brings the fingers down towards it (their mean height along the
-    # approach drops by a quarter from the open to the closed end of the closing DOFs).
+    # The faces that lead each closing DOF's motion.
     q0 = lo + 0.25 * (hi - lo)           # partly open: the fingers still surround the grasp
     at_q0 = _world_meshes(hand, q0)
     leading: Dict[str, np.ndarray] = {n: np.zeros(len(at_q0[n]["areas"]), bool) for n in fingers}
@@ -190,6 +189,8 @@ def propose_spec(urdf: str, wrist: str, package_paths: Sequence[str] = (), name:
             v = sign * (after[n]["centroids"] - at_q0[n]["centroids"]) / step
             speed = np.linalg.norm(v, axis=1)
             leading[n] |= (speed > 1e-9) & (np.einsum("ij,ij->i", v, at_q0[n]["normals"]) >= _LEADING_COS * speed)
+    # The palm: when closing brings the fingers down towards it (their mean height along the
+    # approach drops by a quarter from the open to the closed end of the closing DOFs).
     if wrist in at_mid:
         heights = []
         for end in (lo, hi):
@@ -231,7 +232,7 @@ def draw_hand(hand, path: str, title: str = "") -> str:
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     from . import _core
-    from .render import CONTACT_COLOR, HAND_COLOR, _pyplot, _save, _shade
+    from .render import CONTACT_COLOR, HAND_COLOR, _pyplot, _save, _shade, _tri_normals
 
     lo, hi = np.asarray(hand.dof_lower, float), np.asarray(hand.dof_upper, float)
     mid = (lo + hi) / 2
@@ -248,8 +249,7 @@ def draw_hand(hand, path: str, title: str = "") -> str:
             t = v[np.asarray(link.mesh.faces, int)] * 1000.0
             if len(t) == 0:
                 continue
-            n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
-            n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+            n = _tri_normals(t)
             active = np.zeros(len(t), bool)
             active[np.asarray(link.active_faces, int)] = True
             cols.append(np.where(active[:, None], _shade(n, CONTACT_COLOR), _shade(n, HAND_COLOR)))
