@@ -75,10 +75,11 @@ asan-build: deps $(ASAN_BUILD)/CMakeCache.txt
 asan-ctest: asan-build
 	$(ASAN_ENV) ctest --test-dir $(ASAN_BUILD) --output-on-failure -j $(JOBS) -E "find_package_consumer|plan_grasps_example"
 
-# The tests but the slow ones: those are longer plans through the same C++ paths, and under ASan
-# they would cost an estimated 20 minutes of CI's 90 on a slow day (docs/reliability.md).
+# The tests but the slow and the long ones: those are whole plans through the C++ paths that ctest
+# and the shorter tests already run here, and ASan makes them about nine times slower; with them
+# this step alone took up to 45 minutes of CI's 90 on a loaded day (docs/reliability.md).
 asan-pytest: asan-build install
-	$(ASAN_PY_ENV) $(PYTHON) -m pytest tests/py -q -m "not slow" -p no:cacheprovider
+	$(ASAN_PY_ENV) $(PYTHON) -m pytest tests/py -q -m "not slow and not long" -p no:cacheprovider --durations=10
 
 asan: asan-ctest asan-pytest
 

@@ -165,6 +165,7 @@ def test_errors_are_one_line(args, needle):
     assert "Traceback" not in r.stderr
 
 
+@pytest.mark.long
 def test_plan_writes_grasps_and_pictures(tmp_path):
     out = tmp_path / "out"
     r = run("plan", "--hand", str(MODELS / "parallel_jaw" / "parallel_jaw.json"),

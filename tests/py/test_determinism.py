@@ -31,14 +31,17 @@ def runs(tmp_path_factory):
     return {name: plan(d / name, threads) for name, threads in (("a", 1), ("b", 1), ("c", 2))}
 
 
+@pytest.mark.long
 def test_same_seed_gives_byte_identical_grasps(runs):
     assert runs["a"][0] == runs["b"][0]
 
 
+@pytest.mark.long
 def test_thread_count_does_not_change_a_byte(runs):
     assert runs["a"][0] == runs["c"][0]
 
 
+@pytest.mark.long
 def test_the_compared_files_hold_real_grasps(runs):
     doc = runs["a"][1]
     assert doc["grasps"] and doc["counts"]["evaluated"] > 0

@@ -40,6 +40,7 @@ def test_barrett_plan_finds_force_closure(plan):
     assert [g.rank for g in result.grasps] == list(range(1, len(result.grasps) + 1))
 
 
+@pytest.mark.long
 def test_grasps_do_not_penetrate(plan):
     """Every grasp's hand, its link meshes placed by the grasp's wrist pose and DOFs, enters the
     target no deeper than the tolerance (libigl's winding-number signed distance of dense samples of
@@ -73,6 +74,7 @@ def test_contacts_lie_on_free_faces_of_active_links(plan):
         np.testing.assert_allclose(np.linalg.norm(g.contact_normals, axis=1), 1.0, atol=1e-9)
 
 
+@pytest.mark.long
 def test_written_epsilon_recomputed_from_the_written_contacts(plan, tmp_path):
     """grasps.json read back with the json module: epsilon from its contacts (SciPy's hull over
     wrenches built here, torque origin and scale from trimesh) equals the epsilon written."""

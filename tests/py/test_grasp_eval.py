@@ -103,6 +103,7 @@ def test_pushed_into_box_is_pruned(jaw_box):
     assert e.quality_reason.startswith("pruned")
 
 
+@pytest.mark.long
 def test_fine_tune_jaw_improves(jaw_box):
     _, _, checker = jaw_box
     # 1.5 mm off centre: with the mimic jaw one pad touches while the other is still outside the gap.
@@ -227,6 +228,7 @@ def test_fine_tune_barrett_mug(barrett_mug):
     assert np.array_equal(r0.best.start_dofs, np.zeros(4))
 
 
+@pytest.mark.long
 def test_fine_tune_barrett_flask():
     """A side grasp of the flask's body: the palm faces the flask along target -x, 20 mm off its
     widest radius, fingers open; the finger rows (wrist y) straddle the body. Closing gives a

@@ -120,6 +120,7 @@ def test_planner_simplifies_a_large_target_and_records_it():
     assert planner.free[up > 0.005].all() and not planner.free[up < -0.005].any()
 
 
+@pytest.mark.long
 def test_simplification_stays_within_the_depth_tolerance_the_planner_uses():
     # A 4 cm sphere: the planner derives a 2.7 mm edge (a fifteenth of its size), so its depth
     # tolerance is 0.67 mm, not the 1.25 mm of 5 mm facets. A depth_tolerance given (50 um, below

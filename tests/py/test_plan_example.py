@@ -29,6 +29,7 @@ def grid_plan():
     return planner, planner.plan(schedule="grid", step=0.5, rank="robust", progress=False)
 
 
+@pytest.mark.long
 def test_cpp_plan_samples_equals_the_python_planner(grid_plan):
     planner, result = grid_plan
     lo, hi = np.asarray(planner.hand.dof_lower), np.asarray(planner.hand.dof_upper)
@@ -55,6 +56,7 @@ def _example_output():
     return found[0] if found and found[0].exists() else None
 
 
+@pytest.mark.long
 def test_the_cpp_program_writes_the_python_planners_grasps(grid_plan, tmp_path):
     if os.environ.get("PAIRGRASP_SANITIZED"):
         pytest.skip("the example program is built without sanitizers; compared with the plain build's extension")

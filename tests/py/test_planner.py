@@ -110,6 +110,7 @@ def test_deterministic_for_a_seed(jaw_planner, jaw_result):
     assert a == b
 
 
+@pytest.mark.long
 def test_time_limit_stops_the_search_between_chunks(jaw_planner):
     """A limit already passed when the search starts leaves every kept sample unsearched, counted
     as skipped, and returns no grasp rather than failing; a generous one changes nothing."""
@@ -151,6 +152,7 @@ def _coarse_indices(n):
     return list(range(0, n, 3)) + ([n - 1] if n - 1 - last >= 2 else [])
 
 
+@pytest.mark.long
 def test_fast_refine_rounds_climb_from_the_last_round(jaw_planner):
     """Round 0 is the coarse grid alone (every third value, and the upper limit unless it is one
     fine step beyond the last of them); each further
@@ -183,6 +185,7 @@ def test_schedule_poses_per_sample():
     assert pg.PlanParams(schedule="fast", poses_per_sample=4, max_poses_per_sample=2).poses() == (4, 4)
 
 
+@pytest.mark.long
 def test_plan_time_poses_per_sample_above_the_constructors_is_honoured(jaw_planner):
     """The planner's aligner returns at most 10 poses per sample by default; asking plan() for 20
     must give up to 20 (what an aligner of its own returns), not silently 10."""
@@ -195,6 +198,7 @@ def test_plan_time_poses_per_sample_above_the_constructors_is_honoured(jaw_plann
     assert r.counts["aligned_poses"] == sum(expect)
 
 
+@pytest.mark.long
 def test_deepening_adds_the_coarse_samples_next_poses(jaw_planner):
     """Asked for force closure in every candidate (a rate of 1), fast takes every coarse sample's
     poses of rank 3 to 11 after its first 3; asked for none (0), it takes none."""
@@ -350,6 +354,7 @@ def test_plan_time_fields_cannot_change_what_the_constructor_built(jaw_planner, 
         jaw_planner.plan(**{field: value})
 
 
+@pytest.mark.long
 def test_backoff_is_a_plan_time_field(jaw_planner):
     """``backoff`` given to plan() is the one the settling uses: the same grasps and counts as a
     Planner built with it, and other counts than the default's (a 2 mm back-off clears fewer poses
@@ -378,6 +383,7 @@ def test_reduce_contacts_keeps_extremes():
         pg.reduce_contacts(pts, ["a"] * 11, 0)
 
 
+@pytest.mark.long
 def test_reduced_epsilon_is_a_lower_bound():
     rng = np.random.default_rng(3)
     for _ in range(20):
@@ -405,6 +411,7 @@ def test_classical_mds_preserves_planar_distances():
     np.testing.assert_allclose(d(y), d(plane), atol=1e-8)
 
 
+@pytest.mark.long
 def test_same_result_on_one_thread(jaw_result):
     one = pg.Planner(str(JAW), str(BOX), paint=str(BOX_PAINT), edge=0.008, top=3, seed=1, fine_tune=2,
                      fine_tune_iterations=6, poses_per_sample=3, threads=1).plan(progress=False)

@@ -428,6 +428,7 @@ def test_contacts_inside_a_flat_patch_change_nothing():
     assert q.volume == pytest.approx(vol, rel=1e-9)
 
 
+@pytest.mark.long
 def test_pads_rounded_to_a_nanometre_keep_their_epsilon():
     """Two opposite 6x6 pads in random orientations, their points rounded to 1e-9 m as
     grasps.json writes them: nearly coplanar wrenches once made qhull's precision check fail and
@@ -494,6 +495,7 @@ def test_without_open_volume_only_non_closure_changes(seed):
 # ------------------------------------------------------------------------------- API and errors
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.long
 def test_force_resistance_matches_the_scipy_hull(seed):
     # The ray from the origin along a pure force leaves SciPy's hull of independently built wrenches
     # (tests/py/independent.py) where pairgrasp's hull-free computation says, along the six load
@@ -669,6 +671,7 @@ def test_upper_bound_is_never_below_epsilon():
     assert pg.epsilon_upper_bound(np.zeros((0, 3)), np.zeros((0, 3)), ORIGIN, 0.03) == 0.0
 
 
+@pytest.mark.long
 def test_threads_give_the_serial_answers():
     """Many calls from a thread pool (the GIL is released during the C++ work, each call has its own
     qhull state) give exactly the serial answers."""

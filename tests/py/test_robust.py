@@ -232,6 +232,7 @@ def test_grasps_file_robust_fields_are_optional_and_checked():
 
 # ----- the planner -----
 
+@pytest.mark.long
 def test_plans_lead_with_the_grasp_that_resists_gravity_best_by_default(barrett_flask):
     # The physics check's rank-1 grasp held most often under the load ranking (docs/physics.md):
     # rank 1 resists a pure force at the centre of mass best along its worst axis (measured here with
@@ -260,6 +261,7 @@ def robust_flask(barrett_flask):
     return planner, planner.plan(rank="robust", progress=False)
 
 
+@pytest.mark.long
 def test_plans_are_ranked_by_robustness(robust_flask):
     planner, result = robust_flask
     keys = [(g.force_closure_probability, g.robust_epsilon) for g in result.grasps]
@@ -271,6 +273,7 @@ def test_plans_are_ranked_by_robustness(robust_flask):
     assert all("force_closure_probability" in g and "robust_epsilon" in g for g in doc["grasps"])
 
 
+@pytest.mark.long
 def test_the_first_grasps_do_not_depend_on_how_many_are_asked_for():
     # The robust ranking scores a pool of max(top, 10) grasps, so asking for 3 grasps returns the
     # first 3 of 5. (With a pool of top + 5, as before, the demo's plan of the flask returned
@@ -287,6 +290,7 @@ def test_the_first_grasps_do_not_depend_on_how_many_are_asked_for():
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_the_robust_ranking_picks_from_the_epsilon_rankings_best(robust_flask):
     planner, robust = robust_flask
     by_eps = planner.plan(rank="epsilon", top=len(robust.grasps) + 5, progress=False)
@@ -311,6 +315,7 @@ def _pose_key(g):
     return bytes(np.round(g.wrist_pose, 12)), bytes(np.round(g.dofs, 12))
 
 
+@pytest.mark.long
 def test_the_enclosure_ranking_leads_with_the_most_enclosing_of_the_epsilon_rankings_best(barrett_flask, epsilon_ten):
     # rank="enclosure" picks its rank 1 from the grasps the epsilon ranking returns with top=10
     # (planned the same way): the force-closure grasp with the most hand links in contact (counted
@@ -339,6 +344,7 @@ def test_the_enclosure_ranking_leads_with_the_most_enclosing_of_the_epsilon_rank
     assert rest == sorted(rest, reverse=True)
 
 
+@pytest.mark.long
 def test_the_load_ranking_leads_with_the_grasp_that_resists_gravity_best(barrett_flask, epsilon_ten):
     # rank="load" picks its rank 1 from the same pool: of the force-closure grasps whose fingers are
     # opposed (below), the one whose contacts resist a

@@ -361,6 +361,7 @@ def run_cli(*args):
                           cwd=ROOT, timeout=600)
 
 
+@pytest.mark.long
 def test_cli_simulate_writes_outcomes(tmp_path):
     path = tmp_path / "grasps.json"
     path.write_text(json.dumps(grasps_doc()))

@@ -67,6 +67,7 @@ def test_holder_occlusion_matches_trimesh_distances_at_patch_resolution():
     assert 0.05 < 1 - free_area(s) / tm.area < 0.6
 
 
+@pytest.mark.long
 def test_support_plane_and_table_mesh_give_the_same_free_surface():
     target = pg.load_mesh(str(BOX))
     plane = pg.support_plane(True, target)
@@ -104,6 +105,7 @@ def barrett_on_table():
     return hand, planner, planner.plan(top=5, seed=1)
 
 
+@pytest.mark.long
 def test_barrett_grasps_on_a_table_hold_and_clear_it(barrett_on_table):
     hand, planner, result = barrett_on_table
     assert result.grasps, "no grasp of the box standing on a table"
@@ -117,6 +119,7 @@ def test_barrett_grasps_on_a_table_hold_and_clear_it(barrett_on_table):
         assert (pts[:, 2] > 0.005 - 1e-3).all(), f"grasp {g.rank} touches the covered strip"
 
 
+@pytest.mark.long
 def test_support_recorded_and_read_back(barrett_on_table, tmp_path):
     hand, planner, result = barrett_on_table
     path = tmp_path / "box.grasps.json"

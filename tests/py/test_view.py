@@ -92,6 +92,7 @@ def test_export_holds_the_target_and_the_hand_at_the_grasp(jaw_grasps, tmp_path)
     assert extras[0]["simulation"]["outcome"] == "held"
 
 
+@pytest.mark.long
 def test_export_rank_and_all_ranks(jaw_grasps, tmp_path):
     path, _, _ = jaw_grasps
     r = run("view", str(path), "--export", str(tmp_path / "two.glb"), "--rank", "2")
@@ -116,6 +117,7 @@ def test_scene_text_has_epsilon_and_the_simulation(jaw_grasps):
     assert "force closure" in two.summary and "simulated" not in two.summary
 
 
+@pytest.mark.long
 def test_obstacles_and_occluders_are_in_the_scene(tmp_path):
     """A plan with a table as obstacle and occluder: the exported scene holds both, and the occluded
     faces it rebuilds from the recorded files are the planner's (no note about a difference)."""
@@ -252,6 +254,7 @@ def _drawn(img):
     return dict(std=float(canvas.std()), colours=len(np.unique(canvas, axis=0)), hand=hand, occluded=occluded)
 
 
+@pytest.mark.long
 def test_viewer_draws_in_a_headless_browser(jaw_grasps, tmp_path):
     """Serves the scene on a free port, loads the page in headless chromium (WebGL on SwiftShader) and
     checks a screenshot of the 3-D canvas: not blank, the hand's blue and the occluded faces' orange in
