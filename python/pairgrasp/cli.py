@@ -252,6 +252,13 @@ def _cmd_simulate(args) -> int:
 def _cmd_hand(args) -> int:
     import pairgrasp as pg
 
+    if args.hand_command == "import":
+        spec = pg.import_hand(args.model, args.wrist, args.output, name=args.name, force=args.force)
+        print(f"wrote {args.output}: hand.urdf, meshes/, hand.json with {len(spec['dofs'])} DOFs "
+              f"({', '.join(d['name'] for d in spec['dofs'])}), approach {_fmt_vec(spec['approach'])}, active links "
+              f"{', '.join(a['link'] for a in spec['active_surfaces'])}; check it with: pairgrasp hand show "
+              f"{os.path.join(args.output, 'hand.json')} -o hand.png")
+        return 0
     if args.hand_command == "init":
         spec = pg.propose_spec(args.urdf, args.wrist, package_paths=args.package_path or (), name=args.name)
         text = json.dumps(spec, indent=2) + "\n"
@@ -464,7 +471,8 @@ def build_parser() -> argparse.ArgumentParser:
     simu.add_argument("--no-picture", action="store_true", help="do not draw simulation.png")
     simu.add_argument("--quiet", action="store_true", help="no progress bar")
     simu.set_defaults(func=_cmd_simulate)
-    hand = sub.add_parser("hand", help="propose a hand spec from a URDF (init), draw a spec's hand (show)")
+    hand = sub.add_parser("hand", help="propose a hand spec from a URDF (init), import a MuJoCo hand (import), "
+                          "draw a spec's hand (show)")
     hand_sub = hand.add_subparsers(dest="hand_command", parser_class=_Parser)
     hand_sub.required = True
     init = hand_sub.add_parser("init", help="propose a hand spec for the hand below a link of a URDF (a robot's "
@@ -477,6 +485,13 @@ def build_parser() -> argparse.ArgumentParser:
     init.add_argument("--name", help="the hand's name (default: the URDF's robot name)")
     init.add_argument("-o", "--output", metavar="SPEC.json", help="write the spec there (default: print it)")
     init.add_argument("--force", action="store_true", help="replace -o if it exists")
+    imp = hand_sub.add_parser("import", help="write a hand folder (URDF, meshes, proposed spec) for the hand below a "
+                              "body of a MuJoCo model (MJCF, or a URDF MuJoCo reads); needs the sim extra")
+    imp.add_argument("model", metavar="MODEL", help="the model: MODEL.xml (MJCF) or MODEL.urdf")
+    imp.add_argument("--wrist", required=True, metavar="BODY", help="the wrist body: the hand is its subtree")
+    imp.add_argument("-o", "--output", required=True, metavar="DIR", help="the hand folder to write")
+    imp.add_argument("--name", help="the hand's name (default: the model file's name)")
+    imp.add_argument("--force", action="store_true", help="replace -o if it exists")
     show = hand_sub.add_parser("show", help="draw a hand open, at mid-range and closed with its active faces coloured")
     show.add_argument("spec", metavar="SPEC", help="hand spec (JSON)")
     show.add_argument("-o", "--output", required=True, metavar="FILE.png", help="the picture to write")

@@ -16,6 +16,16 @@ through :func:`pairgrasp.load_hand`) and derives:
   grasp centre at mid-range (the centroid of the moving links), written as a normal cone about
   their mean normal; and the palm (the wrist link's faces towards the approach) when closing brings
   the fingers down towards it.
+* **Synergies** for a hand of more than ``SYNERGIES_ABOVE`` independent joints (the Shadow hand's
+  18, the Allegro's 16: too many for the planner to sample one by one), at most ``MAX_DOFS``: the
+  joints are grouped by finger (the link below the wrist their chain starts with); a finger's
+  flexion joints are those within 30 degrees of parallel to its tip joint's axis, closing the way
+  the planner's closing direction says; the fingers whose tips close (across the approach) the
+  way of the most typical finger are the fingers, the rest oppose them (a thumb). ``close`` and
+  ``close_opposing`` sweep each group's flexion joints from open (0) to closed (1) together;
+  ``spread`` turns the fingers' other joints from -1 to 1 (half their range each way, positive
+  moving the tip away from the fingers' centre) and ``turn_opposing`` the opposing group's (positive
+  towards the fingers).
 """
 from __future__ import annotations
 
@@ -33,6 +43,9 @@ _CLOSING_AXIS_COS = math.cos(math.radians(45.0))   # a joint axis farther than t
 _LEADING_COS = math.cos(math.radians(60.0))        # a face moving within this of its normal leads the closing
 _SNAP_COS = math.cos(math.radians(10.0))           # an approach this near a frame axis becomes that axis
 _PALM_CONE_DEG = 10.0
+_FLEX_COS = math.cos(math.radians(30.0))           # a joint this near parallel to its finger's tip joint flexes it
+MAX_DOFS = 4                                       # synergies proposed for a hand of many joints, at most
+SYNERGIES_ABOVE = 5                                # independent joints; the Barrett hand's five stay one DOF each
 
 
 def _urdf_subtree(urdf: str, wrist: str):
@@ -221,8 +234,119 @@ def propose_spec(urdf: str, wrist: str, package_paths: Sequence[str] = (), name:
             "approach": _round(approach),
             "dofs": [{"name": j, "joints": [{"joint": j}]} for j in driven],
             "active_surfaces": surfaces}
+    if len(driven) > SYNERGIES_ABOVE:
+        spec["dofs"] = _synergies(_load(spec, paths), driven, wrist, urdf, approach)
     _load(spec, paths)      # the proposal loads as it is written
     return spec
+
+
+def _synergies(hand, driven: List[str], wrist: str, urdf: str, approach: np.ndarray) -> List[dict]:
+    """At most MAX_DOFS synergies for a hand of more independent joints (the module's docs)."""
+    from . import _core
+
+    lo, hi = np.asarray(hand.dof_lower, float), np.asarray(hand.dof_upper, float)
+    mid = (lo + hi) / 2
+    dirs = np.asarray(_core.closing_directions(hand, mid), int).reshape(-1)
+    joints = {j.name: j for j in hand.joints}
+    parent_of = {j.child_link: j for j in hand.joints}
+
+    def chain(link):                       # the joints from the wrist down to link, wrist first
+        out = []
+        while link in parent_of and link != wrist:
+            out.append(parent_of[link])
+            link = parent_of[link].parent_link
+        return out[::-1]
+
+    def finger(jname):                     # the link below the wrist that the joint's chain starts with
+        return chain(joints[jname].child_link)[0].child_link
+
+    poses = hand.link_transforms(mid)
+    at_mid = _world_meshes(hand, mid)
+
+    def axis(j):
+        return poses[j.parent_link][:3, :3] @ np.asarray(j.origin, float)[:3, :3] @ np.asarray(j.axis, float)
+
+    groups: Dict[str, List[int]] = {}
+    for d, jn in enumerate(driven):
+        groups.setdefault(finger(jn), []).append(d)
+    tips, flex, turn, sense = {}, {}, {}, {}
+    for f, ds in groups.items():
+        below = [l for l in at_mid if any(j.child_link == f for j in chain(l))]
+        tip = max(below, key=lambda l: len(chain(l))) if below else None
+        # The finger's flexion axis is its tip joint's: every finger's last joint flexes it.
+        last = chain(tip)[-1] if tip else joints[driven[ds[-1]]]
+        a_tip = axis(last)
+        parallel = [d for d in ds if abs(float(axis(joints[driven[d]]) @ a_tip)) >= _FLEX_COS]
+        # Their closing sense: the planner's closing direction where it has one, carried to the
+        # finger's other flexion joints through the sense of their axes.
+        refs = [d for d in parallel if dirs[d] != 0]
+        flex[f] = parallel if refs else []
+        for d in flex[f]:
+            r = refs[0]
+            sense[d] = int(dirs[r]) * (1 if float(axis(joints[driven[d]]) @ axis(joints[driven[r]])) > 0 else -1)
+        turn[f] = [d for d in ds if d not in flex[f]]
+        tips[f] = tip
+
+    def tip_at(q, f):
+        return _centroid(_world_meshes(hand, q)[tips[f]]) if tips[f] else np.zeros(3)
+
+    # Each finger's closing motion: its tip's displacement when its flexion joints close together.
+    motion = {}
+    for f in groups:
+        if not flex[f] or tips[f] is None:
+            continue
+        q = mid.copy()
+        for d in flex[f]:
+            q[d] += sense[d] * 0.05 * (hi[d] - lo[d])
+        v = tip_at(q, f) - tip_at(mid, f)
+        v = v - (v @ approach) * approach          # across the approach: where the finger closes to
+        if np.linalg.norm(v) > 1e-12:
+            motion[f] = v / np.linalg.norm(v)
+    if not motion:
+        raise ValueError(f"{urdf}: {len(driven)} DOFs and no finger that closes: cannot propose at most {MAX_DOFS}")
+    names = sorted(motion)
+    ref = max(names, key=lambda f: sum(float(motion[f] @ motion[g]) for g in names))
+    fingers = [f for f in sorted(groups) if f not in motion or float(motion[f] @ motion[ref]) > 0]
+    opposing = [f for f in sorted(groups) if f not in fingers]
+    centre_f = np.mean([tip_at(mid, f) for f in fingers if tips[f]], axis=0)
+    centre_o = np.mean([tip_at(mid, f) for f in opposing if tips[f]], axis=0) if opposing else centre_f
+
+    def closing(ds, dof):
+        return {"name": dof, "step": 0.25,        # from 0 (open) to 1 (closed), within every joint's limits
+                "joints": [{"joint": driven[d], "ratio": _r(sense[d] * (hi[d] - lo[d])),
+                            "offset": _r(lo[d] if sense[d] > 0 else hi[d])} for d in ds]}
+
+    def turning(ds, dof, towards_centre, away):
+        out = []
+        for d in ds:
+            f = finger(driven[d])
+            q = mid.copy()
+            q[d] += 0.05 * (hi[d] - lo[d])
+            moved = tip_at(q, f) - tip_at(mid, f) if tips[f] else np.zeros(3)
+            outward = tip_at(mid, f) - towards_centre if away else towards_centre - tip_at(mid, f)
+            sign = 1.0 if float(moved @ outward) >= 0 else -1.0
+            out.append({"joint": driven[d], "ratio": _r(sign * (hi[d] - lo[d]) / 2), "offset": _r(mid[d])})
+        return {"name": dof, "step": 0.5, "joints": out}      # from -1 to 1 within every joint's limits
+
+    dofs = []
+    close_f = [d for f in fingers for d in flex[f]]
+    close_o = [d for f in opposing for d in flex[f]]
+    turn_f = [d for f in fingers for d in turn[f]]
+    turn_o = [d for f in opposing for d in turn[f]]
+    if close_f:
+        dofs.append(closing(close_f, "close"))
+    if close_o:
+        dofs.append(closing(close_o, "close_opposing"))
+    if turn_f:
+        dofs.append(turning(turn_f, "spread", centre_f, away=True))
+    if turn_o:
+        dofs.append(turning(turn_o, "turn_opposing", centre_f, away=False))
+    del centre_o
+    return dofs
+
+
+def _r(x: float) -> float:
+    return round(float(x), 12) + 0.0
 
 
 def draw_hand(hand, path: str, title: str = "") -> str:

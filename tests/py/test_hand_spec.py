@@ -61,6 +61,7 @@ def test_the_proposed_active_faces_close_like_the_written_ones(tmp_path, name, u
             assert len(a & b) >= 0.5 * len(a), lw.name
 
 
+@pytest.mark.long
 def test_init_writes_a_spec_that_plans_and_show_draws_it(tmp_path):
     spec, png = tmp_path / "jaw.json", tmp_path / "jaw.png"
     r = run("hand", "init", str(MODELS / "parallel_jaw" / "parallel_jaw.urdf"), "--wrist", "pj_base", "-o", str(spec))
