@@ -235,12 +235,14 @@ left None are derived from the index spacing h: tolerance (d, phi, beta) = (0.5 
 angle_tolerance = 4 degrees, position_tolerance = 0.5 h. capacity bounds the rotation bins
 (a full accumulator drops new bins and reports `saturated`). prefilter=False solves every
 correspondence (same results, slower): it exists only to measure the pre-filter's gain.
+antipodal_cone (radians, None: 15 degrees) and antipodal_rolls are align_antipodal()'s.
 )doc")
       .def(pyb::init([](const PairIndex& index, const pyb::object& tolerance, const pyb::object& angle_tolerance,
                         const pyb::object& position_tolerance, const pyb::object& collinear_tolerance,
                         std::size_t capacity, std::size_t position_capacity, std::size_t max_correspondences,
                         int rotation_clusters, int positions_per_rotation, int max_poses, int min_agreement,
-                        int min_votes, int threads, bool prefilter) {
+                        int min_votes, int threads, bool prefilter, const pyb::object& antipodal_cone,
+                        int antipodal_rolls) {
              AlignerOptions o;
              if (!tolerance.is_none()) {
                std::vector<double> tol;
@@ -270,6 +272,8 @@ correspondence (same results, slower): it exists only to measure the pre-filter'
              o.min_votes = min_votes;
              o.threads = threads;
              o.prefilter = prefilter;
+             o.antipodal_cone = optional_value(antipodal_cone, "antipodal_cone");
+             o.antipodal_rolls = antipodal_rolls;
              // The PairIndex is a handle to shared, immutable data: the copy is O(1).
              return Aligner(index, o);
            }),
@@ -281,7 +285,33 @@ correspondence (same results, slower): it exists only to measure the pre-filter'
            "positions_per_rotation"_a = AlignerOptions().positions_per_rotation,
            "max_poses"_a = AlignerOptions().max_poses, "min_agreement"_a = AlignerOptions().min_agreement,
            "min_votes"_a = AlignerOptions().min_votes, "threads"_a = AlignerOptions().threads,
-           "prefilter"_a = AlignerOptions().prefilter)
+           "prefilter"_a = AlignerOptions().prefilter, "antipodal_cone"_a = pyb::none(),
+           "antipodal_rolls"_a = AlignerOptions().antipodal_rolls)
+      .def(
+          "align_antipodal",
+          [](const Aligner& a, const pyb::object& points_in, const pyb::object& normals_in, bool return_stats)
+              -> pyb::object {
+            const Points points = as_points(points_in, "points");
+            const Points normals = as_points(normals_in, "normals");
+            AlignResult r;
+            {
+              pyb::gil_scoped_release release;
+              r = a.align_antipodal(points, normals);
+            }
+            pyb::list poses;
+            for (auto& p : r.poses) poses.append(pyb::cast(std::move(p)));
+            if (return_stats) return pyb::make_tuple(poses, pyb::cast(r.stats));
+            return std::move(poses);
+          },
+          R"doc(
+Aligns a parallel jaw: points (2, 3), its two pads' samples in the wrist frame (metres), normals
+(2, 3) pointing out of the pads, towards each other. The target's antipodal pairs no wider than the
+pads (both outward normals within antipodal_cone, default 15 degrees, of the pair's line) vote for
+grasp lines; up to max_poses lines, best first, give antipodal_rolls poses each (the jaw centred on
+the line at evenly spaced turns about it). Returns a list of AlignedPose, or (poses, AlignStats)
+with return_stats=True. Releases the GIL.
+)doc",
+          "points"_a, "normals"_a, "return_stats"_a = false)
       .def(
           "align",
           [](const Aligner& a, const pyb::object& points_in, const pyb::object& normals_in,

@@ -123,7 +123,8 @@ ConstellationChoice choice_from(const std::string& c) {
   if (c == "auto") return ConstellationChoice::Auto;
   if (c == "per_link") return ConstellationChoice::PerLink;
   if (c == "area") return ConstellationChoice::Area;
-  throw std::invalid_argument("constellation: expected 'auto', 'per_link' or 'area', got '" + c + "'");
+  if (c == "antipodal") return ConstellationChoice::Antipodal;
+  throw std::invalid_argument("constellation: expected 'auto', 'per_link', 'area' or 'antipodal', got '" + c + "'");
 }
 
 // PlannerOptions from keyword arguments named as its fields (None: unset, derived).
@@ -158,12 +159,14 @@ PlannerOptions planner_options(const pyb::kwargs& kw) {
   return o;
 }
 
-const char* mode_name(ConstellationMode m) { return m == ConstellationMode::Area ? "area" : "per_link"; }
+const char* mode_name(const PlannerSetup& s) {
+  return s.antipodal ? "antipodal" : s.mode == ConstellationMode::Area ? "area" : "per_link";
+}
 
 
 const char* const kPlannerOptionsDoc =
     "Options (keywords, as C++ PlannerOptions; None: derived): edge (m), d_max (m; None: the hand's span + edge), "
-    "max_pairs, constellation ('auto', 'per_link', 'area'), spacing (m), max_area_samples, depth_tolerance (m; None: "
+    "max_pairs, constellation ('auto', 'per_link', 'area', 'antipodal'), spacing (m), max_area_samples, depth_tolerance (m; None: "
     "edge / 4), gap (m), field_cell (m; None: max(edge / 5, 1 mm)), max_field_bytes (2 GiB), backoff (m; None: half the "
     "hand's reach; a GraspSearch may use another), threads (0: every core).";
 
@@ -558,7 +561,8 @@ void bind_planning(pyb::module_& m) {
   pyb::class_<PlannerSetup>(m, "PlannerSetup", "Parameters resolved from the hand and the target (resolve_planner).")
       .def_readonly("edge", &PlannerSetup::edge, "Unit-facet edge (m).")
       .def_readonly("d_max", &PlannerSetup::d_max, "Largest stored pair distance (m).")
-      .def_property_readonly("mode", [](const PlannerSetup& s) { return mode_name(s.mode); }, "'per_link' or 'area'.")
+      .def_property_readonly("mode", [](const PlannerSetup& s) { return mode_name(s); },
+                             "'per_link', 'area' or 'antipodal' (per-link samples of a parallel jaw on antipodal pairs).")
       .def_readonly("spacing", &PlannerSetup::spacing, "Area spacing (m; 0 for per-link constellations).")
       .def_readonly("depth_tolerance", &PlannerSetup::depth_tolerance, "m")
       .def_readonly("backoff", &PlannerSetup::backoff, "Largest back-off when settling (m).")

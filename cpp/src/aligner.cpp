@@ -6,6 +6,7 @@
 #include <pairgrasp/versor.hpp>
 
 #include "accumulator.hpp"
+#include "aligner_internal.hpp"
 #include "thread_pool.hpp"
 #include "versor_core.hpp"
 
@@ -18,20 +19,43 @@
 
 namespace pairgrasp {
 
+namespace detail {
+
+double reference_spacing(const PairIndex& index) {
+  const double h = index.spacing();
+  return h > 0 && std::isfinite(h) ? h : index.d_max() / 10;
+}
+
+void check_constellation(const Points& points, const Points& normals) {
+  if (points.rows() < 2)
+    throw std::invalid_argument("points: expected (P,3) with P >= 2, got (" + std::to_string(points.rows()) + ",3)");
+  if (normals.rows() != points.rows())
+    throw std::invalid_argument("normals: expected (" + std::to_string(points.rows()) + ",3) like points, got (" +
+                                std::to_string(normals.rows()) + ",3)");
+  for (Eigen::Index i = 0; i < points.rows(); ++i) {
+    if (!points.row(i).allFinite())
+      throw std::invalid_argument("points: row " + std::to_string(i) + " is not finite");
+    if (!normals.row(i).allFinite())
+      throw std::invalid_argument("normals: row " + std::to_string(i) + " is not finite");
+    const double n = normals.row(i).norm();
+    if (!(std::abs(n - 1.0) <= 1e-6))
+      throw std::invalid_argument("normals: row " + std::to_string(i) + " has length " + std::to_string(n) +
+                                  ", expected unit length");
+  }
+}
+
+}  // namespace detail
+
 namespace {
+
+using detail::check_constellation;
+using detail::reference_spacing;
 
 using Eigen::Quaterniond;
 using Eigen::Vector3d;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr std::size_t kChunk = 256;  // correspondences per pass-2 work item (fixed: determinism)
-
-// The facet size h used to make variances dimensionless: the index's spacing, or d_max / 10 for
-// an index too small to have one.
-double reference_spacing(const PairIndex& index) {
-  const double h = index.spacing();
-  return h > 0 && std::isfinite(h) ? h : index.d_max() / 10;
-}
 
 struct GripperPair {
   std::int32_t a, b;
@@ -172,24 +196,6 @@ struct Correspondence {
 
 Quaterniond vote_quaternion(const Vote& v) {
   return Quaterniond(v.q[3], v.q[0], v.q[1], v.q[2]).normalized();
-}
-
-void check_constellation(const Points& points, const Points& normals) {
-  if (points.rows() < 2)
-    throw std::invalid_argument("points: expected (P,3) with P >= 2, got (" + std::to_string(points.rows()) + ",3)");
-  if (normals.rows() != points.rows())
-    throw std::invalid_argument("normals: expected (" + std::to_string(points.rows()) + ",3) like points, got (" +
-                                std::to_string(normals.rows()) + ",3)");
-  for (Eigen::Index i = 0; i < points.rows(); ++i) {
-    if (!points.row(i).allFinite())
-      throw std::invalid_argument("points: row " + std::to_string(i) + " is not finite");
-    if (!normals.row(i).allFinite())
-      throw std::invalid_argument("normals: row " + std::to_string(i) + " is not finite");
-    const double n = normals.row(i).norm();
-    if (!(std::abs(n - 1.0) <= 1e-6))
-      throw std::invalid_argument("normals: row " + std::to_string(i) + " has length " + std::to_string(n) +
-                                  ", expected unit length");
-  }
 }
 
 void check_tolerance(const char* name, double v) {
@@ -651,6 +657,11 @@ Aligner::Aligner(PairIndex index, const AlignerOptions& options)
   if (o.angle_tolerance == 0) o.angle_tolerance = 4.0 * kPi / 180.0;
   if (o.position_tolerance == 0) o.position_tolerance = 0.5 * h;
   if (o.collinear_tolerance == 0) o.collinear_tolerance = o.angle_tolerance;
+  check_tolerance("antipodal_cone", o.antipodal_cone);
+  if (o.antipodal_cone == 0) o.antipodal_cone = 15.0 * kPi / 180.0;
+  if (o.antipodal_cone >= kPi / 2)
+    throw std::invalid_argument("antipodal_cone: expected less than pi/2 radians, got " + std::to_string(o.antipodal_cone));
+  at_least_one("antipodal_rolls", o.antipodal_rolls);
 }
 
 const AlignerOptions& Aligner::options() const { return options_; }

@@ -7,6 +7,7 @@
 #include "thread_pool.hpp"
 
 #include <algorithm>
+#include <tuple>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -62,24 +63,41 @@ double largest_span(const Points& p) {
   return std::sqrt(s);
 }
 
-// Per-link unless every per-link pair is antipodal (its normals along the line joining the pair)
-// or there are fewer than 3 per-link samples: then no pair fixes the roll, and area samples do.
-ConstellationMode choose_mode(const Hand& hand, ConstellationChoice choice) {
-  if (choice == ConstellationChoice::PerLink) return ConstellationMode::PerLink;
-  if (choice == ConstellationChoice::Area) return ConstellationMode::Area;
+// Whether per-link samples i and j have their normals along the line joining them.
+bool antipodal_pair(const Constellation& c, Eigen::Index i, Eigen::Index j) {
+  Eigen::Vector3d d = (c.points.row(j) - c.points.row(i)).transpose();
+  const double n = d.norm();
+  if (n < 1e-9) return true;
+  d /= n;
+  return std::abs(c.normals.row(i).dot(d)) >= 0.95 && std::abs(c.normals.row(j).dot(d)) >= 0.95;
+}
+
+// A parallel jaw: two per-link samples (at mid-range) whose normals face each other along the line.
+bool is_jaw(const Constellation& c) {
+  if (c.points.rows() != 2) return false;
+  const Eigen::Vector3d d = (c.points.row(1) - c.points.row(0)).transpose();
+  return d.norm() > 1e-9 && c.normals.row(0).dot(d.normalized()) >= 0.95 && -c.normals.row(1).dot(d.normalized()) >= 0.95;
+}
+
+// (mode, antipodal): see ConstellationChoice.
+std::pair<ConstellationMode, bool> choose_mode(const Hand& hand, ConstellationChoice choice) {
+  if (choice == ConstellationChoice::PerLink) return {ConstellationMode::PerLink, false};
+  if (choice == ConstellationChoice::Area) return {ConstellationMode::Area, false};
   const Eigen::VectorXd mid = (hand.dof_lower() + hand.dof_upper()) / 2.0;
   const Constellation c = hand.constellation(mid, ConstellationMode::PerLink);
-  if (c.points.rows() < 3) return ConstellationMode::Area;
+  if (choice == ConstellationChoice::Antipodal) {
+    if (!is_jaw(c))
+      throw std::invalid_argument("constellation: 'antipodal' needs a parallel jaw (two active links whose samples "
+                                  "face each other); hand " + hand.name() + " has " + std::to_string(c.points.rows()) +
+                                  " per-link samples" + (c.points.rows() == 2 ? " that do not face each other" : ""));
+    return {ConstellationMode::PerLink, true};
+  }
+  if (is_jaw(c)) return {ConstellationMode::PerLink, true};
+  if (c.points.rows() < 3) return {ConstellationMode::Area, false};
   for (Eigen::Index i = 0; i < c.points.rows(); ++i)
-    for (Eigen::Index j = i + 1; j < c.points.rows(); ++j) {
-      Eigen::Vector3d d = (c.points.row(j) - c.points.row(i)).transpose();
-      const double n = d.norm();
-      if (n < 1e-9) continue;
-      d /= n;
-      if (std::abs(c.normals.row(i).dot(d)) < 0.95 || std::abs(c.normals.row(j).dot(d)) < 0.95)
-        return ConstellationMode::PerLink;
-    }
-  return ConstellationMode::Area;
+    for (Eigen::Index j = i + 1; j < c.points.rows(); ++j)
+      if (!antipodal_pair(c, i, j)) return {ConstellationMode::PerLink, false};
+  return {ConstellationMode::Area, false};
 }
 
 // Refuses a target whose checker fields would take more than `budget` bytes (an estimate, before
@@ -191,7 +209,7 @@ void validate(const PlannerOptions& o) {
 PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& free, const PlannerOptions& o) {
   validate(o);
   PlannerSetup s;
-  s.mode = choose_mode(hand, o.constellation);
+  std::tie(s.mode, s.antipodal) = choose_mode(hand, o.constellation);
   const Eigen::VectorXd lo = hand.dof_lower(), hi = hand.dof_upper(), mid = (lo + hi) / 2.0;
   double edge = o.edge ? *o.edge : finest_edge(target);
   const std::vector<Eigen::VectorXd> corners = corner_samples(lo, hi);
@@ -356,7 +374,8 @@ std::vector<AlignResult> GraspPlanner::align(const std::vector<Eigen::VectorXd>&
   std::vector<Constellation> cons;
   cons.reserve(samples.size());
   for (const Eigen::VectorXd& q : samples) cons.push_back(constellation(q));
-  return state_->aligner->align_many(cons, max_poses);
+  return state_->setup.antipodal ? state_->aligner->align_antipodal_many(cons, max_poses)
+                                 : state_->aligner->align_many(cons, max_poses);
 }
 
 std::vector<double> GraspPlanner::match_fractions(const std::vector<Eigen::VectorXd>& samples) const {
@@ -369,6 +388,10 @@ std::vector<double> GraspPlanner::match_fractions(const std::vector<Eigen::Vecto
     const Constellation c = constellation(samples[k]);
     const Eigen::Index n = c.points.rows();
     if (n < 2) return;
+    if (state_->setup.antipodal) {  // a jaw: whether it can close on any antipodal pair
+      out[k] = state_->aligner->antipodal_count(c.points, c.normals) > 0 ? 1.0 : 0.0;
+      return;
+    }
     long matched = 0;
     for (Eigen::Index i = 0; i < n; ++i)
       for (Eigen::Index j = i + 1; j < n; ++j) {

@@ -120,6 +120,8 @@ SearchStep GraspSearch::add_samples(const std::vector<Eigen::VectorXd>& samples,
   const int first = options_.poses_per_sample;
   const int most = keep_deeper ? std::max(first, options_.max_poses_per_sample) : first;
   if (deeper_.size() < static_cast<std::size_t>(most - first)) deeper_.resize(static_cast<std::size_t>(most - first));
+  const std::size_t turns = planner_.setup().antipodal
+                                ? static_cast<std::size_t>(planner_.aligner().options().antipodal_rolls) : 1;
   // Aligned 64 samples per call: a bounded batch of results in memory at once.
   constexpr std::size_t kAlignBatch = 64;
   std::vector<Candidate> cands;
@@ -130,13 +132,14 @@ SearchStep GraspSearch::add_samples(const std::vector<Eigen::VectorXd>& samples,
     for (std::size_t i = 0; i < part.size(); ++i) {
       samples_.push_back(part[i]);
       const auto& poses = aligned[i].poses;
-      for (std::size_t k = 0; k < poses.size() && static_cast<int>(k) < most; ++k) {
+      for (std::size_t p = 0; p < poses.size() && static_cast<int>(p / turns) < most; ++p) {
+        const std::size_t k = p / turns;  // the pose's rank: a jaw's grasp line holds `turns` poses
         Candidate c;
         c.sample_index = static_cast<int>(samples_.size() - 1);
-        c.pose = poses[k].pose();
+        c.pose = poses[p].pose();
         c.dofs = part[i];
-        c.alignment_quality = poses[k].quality;
-        c.votes = poses[k].votes;
+        c.alignment_quality = poses[p].quality;
+        c.votes = poses[p].votes;
         if (static_cast<int>(k) < first) {
           cands.push_back(std::move(c));
         } else {

@@ -31,9 +31,10 @@ class PlanParams:
             measured error bound of h / 4, the default penetration tolerance (recorded in the result's ``inputs.target_simplified``);
             None: never.
         constellation: ``"per_link"`` (the paper's one sample per active link), ``"area"`` (samples
-            ``spacing`` apart over the active surfaces) or ``"auto"``: per-link unless every
-            per-link pair is antipodal or there are fewer than 3 per-link samples (a parallel
-            jaw), then area.
+            ``spacing`` apart over the active surfaces), ``"antipodal"`` (a parallel jaw's two pads on
+            the target's antipodal pairs, docs/planner.md) or ``"auto"``: antipodal for a parallel
+            jaw (two per-link samples facing each other), else per-link unless every per-link pair
+            is antipodal or there are fewer than 3 per-link samples, then area.
         spacing: area-sample spacing (m); None: the smallest multiple of h giving at most
             ``max_area_samples`` samples at mid-range.
         max_area_samples: see ``spacing``.

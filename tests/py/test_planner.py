@@ -2,6 +2,7 @@
 parameter errors, contact reduction and the MDS projection of Figure 7."""
 import dataclasses
 import math
+import os
 import pathlib
 import time
 
@@ -44,8 +45,10 @@ def test_grid_schedule_counts_every_sample():
 
 @pytest.fixture(scope="module")
 def jaw_planner():
+    # Area-sampled pads, aligned by the pair votes: the search's mechanics (ranks, deepening, early
+    # rejection) on a hand with one DOF. The jaw's default, antipodal alignment is tested below.
     return pg.Planner(str(JAW), str(BOX), paint=str(BOX_PAINT), edge=0.008, top=3, seed=1, fine_tune=2,
-                      fine_tune_iterations=6, poses_per_sample=3)
+                      fine_tune_iterations=6, poses_per_sample=3, constellation="area")
 
 
 @pytest.fixture(scope="module")
@@ -100,7 +103,7 @@ def test_counts_and_timings(jaw_result):
     assert len(jaw_result.candidates) == c["evaluated"]
     for stage in ("index", "schedule", "align", "settle", "evaluate", "fine_tune", "total"):
         assert jaw_result.timings[stage] >= 0
-    assert jaw_result.constellation == "area"  # the jaw's per-link pair is antipodal
+    assert jaw_result.constellation == "area"  # as asked (the jaw's default is "antipodal")
 
 
 def test_deterministic_for_a_seed(jaw_planner, jaw_result):
@@ -263,6 +266,87 @@ def test_candidate_times_lie_in_the_evaluate_stage(jaw_planner):
     assert max(times) <= min(wall, before + r.timings["evaluate"] + 0.05)
 
 
+# ----------------------------------------------------------------------------- a jaw's antipodal alignment
+
+@pytest.fixture(scope="module")
+def antipodal_jaw():
+    return pg.Planner(str(JAW), str(BOX), edge=0.008, top=3, seed=1)
+
+
+def _in_antipodal_box(features, w, cone):
+    """Brute force over the stored features: a pair the jaw open at w can close on (d <= w, the
+    normals opposed within twice the cone, their terms along the line at least cos(cone) each)."""
+    f = np.asarray(features, float)
+    return (f[:, 0] <= w + 1e-5) & (f[:, 1] <= -np.cos(2 * cone) + 1e-5) & (f[:, 2] >= 2 * np.cos(cone) - 1e-5)
+
+
+def test_a_parallel_jaw_is_aligned_on_antipodal_pairs(antipodal_jaw):
+    """By default a jaw's two pads are aligned on the target's antipodal pairs: a sample is rejected
+    early exactly when no stored pair lies in that feature box (brute force), and the samples give
+    grasp lines of eight turns each, the pads' line along a box face's normal the jaw spans."""
+    assert antipodal_jaw.mode == "antipodal"
+    hand = antipodal_jaw.hand
+    feats = antipodal_jaw.tindex.index.features
+    cone = np.radians(15.0)
+    lo, hi = np.asarray(antipodal_jaw.target.bounds)
+    for v in pg.dof_axes(hand.dof_lower, hand.dof_upper, hand.dof_step)[0]:
+        q = np.array([v])
+        c = antipodal_jaw.constellation(q)
+        w = float(np.linalg.norm(np.asarray(c.points)[1] - np.asarray(c.points)[0]))
+        any_pair = bool(_in_antipodal_box(feats, w, cone).any()) and w > 1e-6
+        assert antipodal_jaw.match_fraction(q) == (1.0 if any_pair else 0.0), w
+        poses = pg.Aligner(antipodal_jaw.tindex.index).align_antipodal(c.points, c.normals)
+        assert len(poses) % 8 == 0 and (any_pair or not poses)   # the box query, then the exact cone test
+        g = np.asarray(c.points)[1] - np.asarray(c.points)[0]
+        for p in poses:
+            axis = np.asarray(p.rotation) @ (g / np.linalg.norm(g))
+            assert np.max(np.abs(axis)) == pytest.approx(1.0, abs=1e-6)      # a face normal of the box
+            k = int(np.argmax(np.abs(axis)))
+            assert hi[k] - lo[k] <= w + 1e-6                                 # a width the jaw spans
+
+
+def test_antipodal_poses_per_sample_counts_grasp_lines(antipodal_jaw):
+    """poses_per_sample counts a jaw's grasp lines, each with all its turns: the grid's candidates are
+    those of an aligner of its own asked for that many lines."""
+    r = antipodal_jaw.plan(schedule="grid", poses_per_sample=2, fine_tune=0, progress=False)
+    hand = antipodal_jaw.hand
+    aligner = pg.Aligner(antipodal_jaw.tindex.index, max_poses=2)
+    expect = 0
+    for v in pg.dof_axes(hand.dof_lower, hand.dof_upper, hand.dof_step)[0]:
+        c = antipodal_jaw.constellation(np.array([v]))
+        expect += len(aligner.align_antipodal(c.points, c.normals))
+    assert r.counts["aligned_poses"] == expect > 0
+
+
+@pytest.mark.long
+@pytest.mark.parametrize("target", ["flask", "box", "mug"])
+def test_the_jaws_plan_force_closure_on_every_bundled_target(target):
+    """The bundled jaw and pybullet_data's Franka Panda hand (its whole arm's URDF, the proposed
+    spec) get force-closure grasps with a contact on each pad on every bundled target."""
+    import pybullet_data
+
+    panda = pg.propose_spec(os.path.join(pybullet_data.getDataPath(), "franka_panda", "panda.urdf"), "panda_hand")
+    for hand in (pg.load_hand(str(JAW)), _hand_from_spec(panda)):
+        r = pg.Planner(hand, str(MODELS / "targets" / f"{target}.stl"), top=3, seed=1).plan(progress=False)
+        assert r.constellation == "antipodal"
+        fc = [g for g in r.grasps if g.force_closure]
+        assert fc, f"{hand.name} on {target}: no force-closure grasp"
+        pads = {l.name for l in hand.links if len(l.active_faces)}
+        assert set(fc[0].contact_links) == pads, (hand.name, target)
+
+
+def _hand_from_spec(spec):
+    import json
+    import tempfile
+
+    with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
+        json.dump(spec, f)
+    try:
+        return pg.load_hand(f.name)
+    finally:
+        os.remove(f.name)
+
+
 # ----------------------------------------------------------------------------- early rejection
 
 def test_match_fraction_equals_brute_force(jaw_planner):
@@ -343,7 +427,7 @@ def test_bad_planner_inputs():
 
 
 @pytest.mark.parametrize("field,value", [
-    ("edge", 0.002), ("d_max", 0.3), ("max_pairs", 1000), ("max_faces", 10), ("constellation", "area"),
+    ("edge", 0.002), ("d_max", 0.3), ("max_pairs", 1000), ("max_faces", 10), ("constellation", "per_link"),
     ("spacing", 0.01), ("max_area_samples", 5), ("depth_tolerance", 0.0001), ("gap", 0.002), ("threads", 1),
 ])
 def test_plan_time_fields_cannot_change_what_the_constructor_built(jaw_planner, field, value):
@@ -414,7 +498,7 @@ def test_classical_mds_preserves_planar_distances():
 @pytest.mark.long
 def test_same_result_on_one_thread(jaw_result):
     one = pg.Planner(str(JAW), str(BOX), paint=str(BOX_PAINT), edge=0.008, top=3, seed=1, fine_tune=2,
-                     fine_tune_iterations=6, poses_per_sample=3, threads=1).plan(progress=False)
+                     fine_tune_iterations=6, poses_per_sample=3, constellation="area", threads=1).plan(progress=False)
     a, b = jaw_result.to_dict(), one.to_dict()
     for d in (a, b):
         d.pop("timings")

@@ -54,6 +54,29 @@
 ///
 /// and the alignment quality is Q_A = votes / (1 + variance) (eq. 8), votes = sum_k w_k.
 ///
+/// **Antipodal alignment** (align_antipodal(), a parallel jaw). A jaw's per-link constellation is
+/// one pair of samples, the pads' centres a and b, whose normals lie along the line between them:
+/// any rotation about that line matches it equally, so the solver above finds every
+/// correspondence underdetermined. Its alignment is made on that line instead. With
+/// w = |b - a|, g = (b - a) / w and m_G = (a + b) / 2, the target pairs the jaw can close on are
+/// the stored pairs (i, j) with d <= w whose outward normals both lie within `antipodal_cone` of
+/// the line, n_i.(p_i - p_j) / d and n_j.(p_j - p_i) / d >= cos(cone) (one query of the index
+/// over the box d in [0, w], phi <= -cos(2 cone), beta >= 2 cos(cone), then that exact test).
+/// Each such pair votes once for its line: the direction the pads close along, the mean of the
+/// two normals t = (n_j - n_i) / |n_j - n_i| (not p_j - p_i: on two parallel faces every tilted
+/// pair then votes for the faces' normal), its sign made canonical (first non-zero coordinate
+/// positive; the pads then swap, i.e. the jaw is taken to be symmetric under a half turn about its
+/// approach), and the midpoint m = (p_i + p_j) / 2, into
+/// bins of angle_tolerance (t's coordinates) by position_tolerance (m's). Bins are taken best
+/// first (votes, then first pair) as lines, skipping a bin whose midpoint lies within
+/// 4 position_tolerance and whose direction lies within 2 angle_tolerance of a line already taken,
+/// up to max_poses lines (min_votes does not apply: one pair is a grasp line). Each line gives
+/// `antipodal_rolls` poses, R = rot(t_mean, 2 pi k / rolls) R_0 (R_0 the shortest rotation taking g
+/// to t_mean) and t = m_mean - R m_G: the jaw centred on the line, open at w, at evenly spaced
+/// turns about it (the settling and collision checks keep the ones the hand reaches). The
+/// variance and Q_A are as above over the line's pairs (weight 1 each); contacts are (0, the facet
+/// under pad a) and (1, the one under pad b). Deterministic, one thread per constellation.
+///
 /// Results are deterministic and independent of the thread count: work is split into fixed
 /// chunks whose results are merged in chunk order (pass 3: one item per rotation cluster, merged
 /// in cluster order).
@@ -94,6 +117,10 @@ struct AlignerOptions {
   int min_agreement = 3;
   int min_votes = 3;             ///< poses with fewer votes are not returned
   int threads = 0;               ///< worker threads for one align(); 0: all cores
+  /// Antipodal alignment: half angle (radians) of the cone about the grasp line in which both
+  /// target normals must lie. Zero: 15 degrees.
+  double antipodal_cone = 0.0;
+  int antipodal_rolls = 8;  ///< antipodal alignment: poses per grasp line (turns about it)
   /// Reject correspondences that cannot vote before solving them (see "Pre-filter" in the file
   /// comment). It never changes the result: poses and every count but `prefiltered` are the same
   /// with it off. Off exists only to measure the solver-only path for comparison (bench_aligner).
@@ -178,6 +205,22 @@ class Aligner {
   /// that many poses at most instead of options().max_poses (the best k poses are the same for
   /// every max_poses >= k).
   std::vector<AlignResult> align_many(const std::vector<Constellation>& constellations, int max_poses = 0) const;
+
+  /// Aligns a parallel jaw (see "Antipodal alignment" in the file comment): points (2,3), the
+  /// two pads' samples in the wrist frame (metres), normals (2,3) unit, pointing out of the pads
+  /// (towards each other). Up to options().max_poses grasp lines, `antipodal_rolls` poses each,
+  /// best line first; none for a closed jaw (samples within 1 micrometre). Throws
+  /// std::invalid_argument for bad shapes or values, or normals that do not face each other along
+  /// the line between the samples.
+  AlignResult align_antipodal(const Points& points, const Points& normals) const;
+
+  /// The stored pairs in align_antipodal()'s feature box (before its exact cone test): zero when
+  /// the jaw, open as the samples say, can close on no antipodal pair. Same errors.
+  std::size_t antipodal_count(const Points& points, const Points& normals) const;
+
+  /// align_antipodal() of many constellations on all `options().threads` workers, as align_many().
+  std::vector<AlignResult> align_antipodal_many(const std::vector<Constellation>& constellations,
+                                                int max_poses = 0) const;
 
   /// The options with every default resolved (tolerances filled in from the index spacing).
   const AlignerOptions& options() const;

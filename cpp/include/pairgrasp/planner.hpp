@@ -28,9 +28,13 @@ namespace pairgrasp {
 
 /// How constellations are chosen.
 enum class ConstellationChoice {
-  Auto,     ///< per-link unless every per-link pair is antipodal or there are fewer than 3 samples (a parallel jaw): area
-  PerLink,  ///< one sample per active link (the paper)
-  Area,     ///< samples spread over the active surfaces
+  /// Per-link, but antipodal for a parallel jaw (two per-link samples facing each other along the
+  /// line between them), and area for other hands whose per-link pairs fix no roll (every pair
+  /// antipodal, or fewer than 3 samples).
+  Auto,
+  PerLink,    ///< one sample per active link (the paper)
+  Area,       ///< samples spread over the active surfaces
+  Antipodal,  ///< a parallel jaw's two pads aligned on the target's antipodal pairs (Aligner::align_antipodal())
 };
 
 /// Options of GraspPlanner: what is fixed once the target is indexed. An unset optional is derived
@@ -68,6 +72,7 @@ struct PlannerSetup {
   double edge = 0.0;   ///< unit-facet edge (m)
   double d_max = 0.0;  ///< largest stored pair distance (m)
   ConstellationMode mode = ConstellationMode::PerLink;
+  bool antipodal = false;        ///< per-link constellations aligned by Aligner::align_antipodal() (a parallel jaw)
   double spacing = 0.0;          ///< area spacing (m; 0 for per-link constellations)
   double depth_tolerance = 0.0;  ///< m
   double backoff = 0.0;          ///< m
@@ -167,12 +172,14 @@ class GraspPlanner {
   /// The constellation aligned for a DOF sample (the resolved mode and spacing).
   Constellation constellation(const Eigen::VectorXd& dofs) const;
   /// Aligns each sample's constellation (all threads, one sample per task); result k belongs to
-  /// samples[k], best pose first, at most `max_poses` poses (0: the aligner's, 10).
+  /// samples[k], best pose first, at most `max_poses` poses (0: the aligner's, 10); a parallel
+  /// jaw's (antipodal) at most `max_poses` grasp lines of `antipodal_rolls` poses each.
   std::vector<AlignResult> align(const std::vector<Eigen::VectorXd>& samples, int max_poses = 0) const;
   /// Early-rejection score of each sample (all threads): the fraction of its constellation's
   /// pairs whose feature (normals flipped, d <= d_max) matches at least one stored target pair
   /// within the aligner's feature tolerance (0 for fewer than 2 points). A sample whose fraction
-  /// is small cannot collect the votes of a good alignment (the paper's Figure 7).
+  /// is small cannot collect the votes of a good alignment (the paper's Figure 7). For a parallel
+  /// jaw (antipodal): 1 when it can close on some antipodal pair (Aligner::antipodal_count()), else 0.
   std::vector<double> match_fractions(const std::vector<Eigen::VectorXd>& samples) const;
 
  private:

@@ -30,7 +30,9 @@ namespace pairgrasp {
 
 /// Options of one plan (GraspSearch, plan_samples()); unset optionals are derived as documented.
 struct PlanOptions {
-  int poses_per_sample = 3;  ///< best aligned poses of each sample that become candidates at once
+  /// Best aligned poses of each sample that become candidates at once (a parallel jaw's: grasp
+  /// lines, each with its Aligner::options().antipodal_rolls turns).
+  int poses_per_sample = 3;
   /// Aligned poses kept per sample added with keep_deeper, for deepen() (at most this many in all,
   /// the first poses_per_sample included; not more than poses_per_sample: none kept).
   int max_poses_per_sample = 3;
