@@ -57,8 +57,9 @@ HANDS = {
     "barrett": os.path.join(ROOT, "models", "barrett", "barrett.json"),
     "parallel_jaw": os.path.join(ROOT, "models", "parallel_jaw", "parallel_jaw.json"),
 }
-# Third-party hands, (URDF inside pybullet_data, wrist link): their specs are proposed by
-# pairgrasp.propose_spec, unedited, into OUT/hands/ when first asked for (docs/hands.md).
+# Third-party hands, (package, model file inside it, wrist link or body): a URDF's spec is proposed by
+# pairgrasp.propose_spec and an MJCF's folder written by pairgrasp.import_hand, unedited, into
+# OUT/hands/ when first asked for (docs/hands.md).
 THIRD_PARTY_HANDS = {
     "panda": ("pybullet_data", "franka_panda/panda.urdf", "panda_hand"),      # the whole arm's URDF
     "pr2_gripper": ("pybullet_data", "pr2_gripper.urdf", "gripper_pole"),

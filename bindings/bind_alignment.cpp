@@ -49,6 +49,21 @@ PairPoseResult solve_arrays(const pyb::object& gp, const pyb::object& gn, const 
                          pair_pose_options(angle_tolerance, collinear_tolerance, min_agreement));
 }
 
+// One constellation's alignment by `align` (points, normals) without the GIL: the poses as a list,
+// the whole result in `r`.
+template <class Align>
+pyb::list aligned(const pyb::object& points_in, const pyb::object& normals_in, AlignResult& r, Align align) {
+  const Points points = as_points(points_in, "points");
+  const Points normals = as_points(normals_in, "normals");
+  {
+    pyb::gil_scoped_release release;
+    r = align(points, normals);
+  }
+  pyb::list poses;
+  for (auto& p : r.poses) poses.append(pyb::cast(std::move(p)));
+  return poses;
+}
+
 double optional_value(const pyb::object& v, const char* name) {
   if (v.is_none()) return 0.0;
   try {
@@ -291,15 +306,10 @@ antipodal_cone (radians, None: 15 degrees) and antipodal_rolls are align_antipod
           "align_antipodal",
           [](const Aligner& a, const pyb::object& points_in, const pyb::object& normals_in, bool return_stats)
               -> pyb::object {
-            const Points points = as_points(points_in, "points");
-            const Points normals = as_points(normals_in, "normals");
             AlignResult r;
-            {
-              pyb::gil_scoped_release release;
-              r = a.align_antipodal(points, normals);
-            }
-            pyb::list poses;
-            for (auto& p : r.poses) poses.append(pyb::cast(std::move(p)));
+            pyb::list poses = aligned(points_in, normals_in, r, [&a](const Points& p, const Points& n) {
+              return a.align_antipodal(p, n);
+            });
             if (return_stats) return pyb::make_tuple(poses, pyb::cast(r.stats));
             return std::move(poses);
           },
@@ -316,15 +326,10 @@ with return_stats=True. Releases the GIL.
           "align",
           [](const Aligner& a, const pyb::object& points_in, const pyb::object& normals_in,
              bool return_stats, bool return_times) -> pyb::object {
-            const Points points = as_points(points_in, "points");
-            const Points normals = as_points(normals_in, "normals");
             AlignResult r;
-            {
-              pyb::gil_scoped_release release;
-              r = a.align(points, normals);
-            }
-            pyb::list poses;
-            for (auto& p : r.poses) poses.append(pyb::cast(std::move(p)));
+            pyb::list poses = aligned(points_in, normals_in, r, [&a](const Points& p, const Points& n) {
+              return a.align(p, n);
+            });
             if (return_times) {
               pyb::dict t;
               t["query"] = r.times.query;

@@ -673,21 +673,10 @@ AlignResult Aligner::align(const Points& points, const Points& normals) const {
 }
 
 std::vector<AlignResult> Aligner::align_many(const std::vector<Constellation>& constellations, int max_poses) const {
-  if (max_poses < 0) throw std::invalid_argument("max_poses: expected >= 0 (0: the aligner's), got " + std::to_string(max_poses));
-  AlignerOptions opt = options_;
-  if (max_poses > 0) opt.max_poses = max_poses;
-  for (std::size_t k = 0; k < constellations.size(); ++k) {
-    try {
-      check_constellation(constellations[k].points, constellations[k].normals);
-    } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument("constellations[" + std::to_string(k) + "]: " + e.what());
-    }
-  }
-  std::vector<AlignResult> out(constellations.size());
-  detail::parallel_for(constellations.size(), detail::resolve_threads(options_.threads), [&](std::size_t k) {
-    out[k] = align_impl(index_, opt, constellations[k].points, constellations[k].normals, 1);
-  });
-  return out;
+  return detail::align_each(constellations, options_, max_poses, options_.threads, check_constellation,
+                            [this](const Points& p, const Points& n, const AlignerOptions& o) {
+                              return align_impl(index_, o, p, n, 1);
+                            });
 }
 
 }  // namespace pairgrasp

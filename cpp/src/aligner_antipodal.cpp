@@ -3,7 +3,6 @@
 #include <pairgrasp/aligner.hpp>
 
 #include "aligner_internal.hpp"
-#include "thread_pool.hpp"
 
 #include <algorithm>
 #include <array>
@@ -201,21 +200,10 @@ std::size_t Aligner::antipodal_count(const Points& points, const Points& normals
 
 std::vector<AlignResult> Aligner::align_antipodal_many(const std::vector<Constellation>& constellations,
                                                        int max_poses) const {
-  if (max_poses < 0) throw std::invalid_argument("max_poses: expected >= 0 (0: the aligner's), got " + std::to_string(max_poses));
-  AlignerOptions opt = options_;
-  if (max_poses > 0) opt.max_poses = max_poses;
-  for (std::size_t k = 0; k < constellations.size(); ++k) {
-    try {
-      check_jaw(constellations[k].points, constellations[k].normals);
-    } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument("constellations[" + std::to_string(k) + "]: " + e.what());
-    }
-  }
-  std::vector<AlignResult> out(constellations.size());
-  detail::parallel_for(constellations.size(), detail::resolve_threads(options_.threads), [&](std::size_t k) {
-    out[k] = antipodal_impl(index_, opt, constellations[k].points);
-  });
-  return out;
+  return detail::align_each(constellations, options_, max_poses, options_.threads, check_jaw,
+                            [this](const Points& p, const Points&, const AlignerOptions& o) {
+                              return antipodal_impl(index_, o, p);
+                            });
 }
 
 }  // namespace pairgrasp

@@ -51,6 +51,12 @@ std::pair<Points, Points> jaw(double w) {
   return {p, n};
 }
 
+PairIndex indexed(const MovedBox& b) {
+  PairIndexOptions io;
+  io.d_max = 0.12;
+  return PairIndex(b.facets.points, b.facets.normals, Mask(), io);
+}
+
 double angle_deg(const Vector3d& a, const Vector3d& b) {
   return std::atan2(a.cross(b).norm(), a.dot(b)) * 180.0 / kPi;
 }
@@ -59,9 +65,7 @@ double angle_deg(const Vector3d& a, const Vector3d& b) {
 
 TEST(Antipodal, LinesCloseAlongTheFaceNormalsCentredBetweenTheFaces) {
   const MovedBox b = moved_box(11);
-  PairIndexOptions io;
-  io.d_max = 0.12;
-  const PairIndex index(b.facets.points, b.facets.normals, Mask(), io);
+  const PairIndex index = indexed(b);
   AlignerOptions o;
   o.max_poses = 500;
   const Aligner aligner(index, o);
@@ -94,9 +98,7 @@ TEST(Antipodal, LinesCloseAlongTheFaceNormalsCentredBetweenTheFaces) {
 
 TEST(Antipodal, EveryAntipodalPairTheJawSpansVotesAsABruteForceScanFindsThem) {
   const MovedBox b = moved_box(5);
-  PairIndexOptions io;
-  io.d_max = 0.12;
-  const PairIndex index(b.facets.points, b.facets.normals, Mask(), io);
+  const PairIndex index = indexed(b);
   const Aligner aligner(index);
   const double cos_cone = std::cos(aligner.options().antipodal_cone);
   for (const double w : {0.03, 0.05, 0.07, 0.11}) {
@@ -133,9 +135,7 @@ TEST(Antipodal, EveryAntipodalPairTheJawSpansVotesAsABruteForceScanFindsThem) {
 
 TEST(Antipodal, ManyEqualsOneByOneAClosedJawAlignsNowhereAndBadPadsAreRefused) {
   const MovedBox b = moved_box(3);
-  PairIndexOptions io;
-  io.d_max = 0.12;
-  const PairIndex index(b.facets.points, b.facets.normals, Mask(), io);
+  const PairIndex index = indexed(b);
   AlignerOptions o;
   o.threads = 2;
   const Aligner aligner(index, o);
