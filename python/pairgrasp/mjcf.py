@@ -44,8 +44,10 @@ _LINEAR_TOL = 1e-12
 def _mujoco():
     try:
         import mujoco
-    except ImportError:
-        raise RuntimeError("hand import needs MuJoCo: pip install 'pairgrasp[sim]'") from None
+        import trimesh  # noqa: F401  (the links' meshes)
+    except ImportError as e:
+        raise RuntimeError(f"hand import needs MuJoCo and trimesh ({e.name} is missing): "
+                           "pip install .[sim]") from None
     return mujoco
 
 
