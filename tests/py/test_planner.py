@@ -318,6 +318,11 @@ def test_antipodal_poses_per_sample_counts_grasp_lines(antipodal_jaw):
     assert r.counts["aligned_poses"] == expect > 0
 
 
+def test_antipodal_alignment_of_a_hand_that_is_no_jaw_is_refused_by_name():
+    with pytest.raises(ValueError, match=r"^constellation: 'antipodal' needs a parallel jaw .* has 7 per-link samples"):
+        pg.Planner(str(BARRETT), str(BOX), constellation="antipodal")
+
+
 @pytest.mark.long
 @pytest.mark.parametrize("target", ["flask", "box", "mug"])
 def test_the_jaws_plan_force_closure_on_every_bundled_target(target):
