@@ -201,7 +201,13 @@ def _couplings(m, mujoco, model: str, joints: Dict[int, _Joint], bodies: set) ->
             couple(o1, o2, float(poly[1]), float(poly[0]), what)
         elif t == E.mjEQ_TENDON:
             parts1 = tendon_joints(o1)
-            touches = parts1 is None or any(in_hand(j) for j, _ in parts1)
+            if parts1 is None:   # a spatial tendon: it touches the hand if one of its sites or geoms does
+                adr, num = int(m.tendon_adr[o1]), int(m.tendon_num[o1])
+                owner = {W.mjWRAP_SITE: m.site_bodyid, W.mjWRAP_SPHERE: m.geom_bodyid, W.mjWRAP_CYLINDER: m.geom_bodyid}
+                touches = any(int(owner[int(m.wrap_type[w])][int(m.wrap_objid[w])]) in bodies
+                              for w in range(adr, adr + num) if int(m.wrap_type[w]) in owner)
+            else:
+                touches = any(in_hand(j) for j, _ in parts1)
             if not touches:
                 continue
             if o2 >= 0:
@@ -307,6 +313,11 @@ def import_hand(model: str, wrist: str, out_dir: str, name: Optional[str] = None
         raise ValueError(f"{model}: the hand below body '{wrist}' has no moving joint (nothing to close)")
 
     body_name = {b: _safe(_name(m, mujoco, B, b, "body")) for b in bodies}
+    for kind, names in (("bodies", list(body_name.values())), ("joints", [_safe(j.name) for j in joints.values()])):
+        clash = sorted({n for n in names if names.count(n) > 1})
+        if clash:
+            raise ValueError(f"{model}: {kind} of the hand share a URDF name once their characters outside "
+                             f"[A-Za-z0-9_.-] become '_': {', '.join(clash[:5])}")
     robot = ET.Element("robot", name=name or _safe(os.path.splitext(os.path.basename(model))[0]))
     meshes: Dict[str, trimesh.Trimesh] = {}
     link_of: Dict[int, str] = {}          # body -> the link holding its geometry
@@ -380,7 +391,7 @@ def import_hand(model: str, wrist: str, out_dir: str, name: Optional[str] = None
         for tag in ("visual", "collision"):
             el = ET.SubElement(link_elems[link_of[b]], tag)
             ET.SubElement(ET.SubElement(el, "geometry"), "mesh", filename=f"meshes/{link_of[b]}.stl")
-    if body_name[w] not in meshes and not meshes:
+    if not meshes:
         raise ValueError(f"{model}: the hand below body '{wrist}' has no geometry")
 
     tmp = f"{out_dir.rstrip(os.sep)}.part"

@@ -4,6 +4,7 @@ constraint residuals; bad models get one error line and nothing is written."""
 import json
 import os
 import pathlib
+import re
 import subprocess
 import sys
 
@@ -217,6 +218,8 @@ BAD = [
     ("closed loop", HAND.replace("</equality>", '<connect name="loop" body1="f1_distal" body2="f2_distal" '
                                  'anchor="0 0 0"/></equality>'), PARTS, "palm",
      "equality 'loop' (connect) ties bodies of the hand together"),
+    ("names that clash in a URDF", HAND.replace('<body name="f2_distal"', '<body name="f1:distal"'), PARTS, "palm",
+     "bodies of the hand share a URDF name once their characters outside [A-Za-z0-9_.-] become '_': f1_distal"),
     ("malformed XML", HAND.replace("</worldbody>", ""), PARTS, "palm", "MuJoCo cannot load it"),
     ("missing mesh", HAND.replace('file="palm.stl"', 'file="gone.stl"'), PARTS, "palm", "MuJoCo cannot load it"),
 ]
@@ -231,7 +234,7 @@ def test_bad_models_get_one_line_and_nothing_is_written(tmp_path, case, hand, pa
     assert r.returncode != 0 and len(lines) == 1 and lines[0].startswith("pairgrasp: error: "), r.stderr
     assert message in lines[0]
     assert not out.exists() and not (tmp_path / "out.part").exists()
-    with pytest.raises(ValueError, match="MuJoCo cannot load" if "load" in message else message.split("'")[0]):
+    with pytest.raises(ValueError, match=re.escape("MuJoCo cannot load" if "load" in message else message.split("'")[0])):
         pg.import_hand(str(model), wrist, str(tmp_path / "out2"))
 
 
