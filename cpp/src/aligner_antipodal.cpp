@@ -69,7 +69,7 @@ AlignResult antipodal_impl(const PairIndex& index, const AlignerOptions& opt, co
   AlignResult result;
   AlignStats& st = result.stats;
   const Vector3d a = gp.row(0).transpose(), b = gp.row(1).transpose();
-  const double w = (b - a).norm();
+  const double w = width(gp);
   st.gripper_pairs = 1;
   if (!(w > kClosed)) return result;
   const Vector3d g = (b - a) / w, m_g = (a + b) / 2;
