@@ -658,7 +658,7 @@ Aligner::Aligner(PairIndex index, const AlignerOptions& options)
   if (o.position_tolerance == 0) o.position_tolerance = 0.5 * h;
   if (o.collinear_tolerance == 0) o.collinear_tolerance = o.angle_tolerance;
   check_tolerance("antipodal_cone", o.antipodal_cone);
-  if (o.antipodal_cone == 0) o.antipodal_cone = 15.0 * kPi / 180.0;
+  if (o.antipodal_cone == 0) o.antipodal_cone = kDefaultAntipodalCone;
   if (o.antipodal_cone >= kPi / 2)
     throw std::invalid_argument("antipodal_cone: expected less than pi/2 radians, got " + std::to_string(o.antipodal_cone));
   at_least_one("antipodal_rolls", o.antipodal_rolls);

@@ -12,6 +12,7 @@
 #include <map>
 #include <string>
 #include <tuple>
+#include <utility>
 
 namespace pairgrasp {
 
@@ -105,6 +106,11 @@ AlignResult antipodal_impl(const PairIndex& index, const AlignerOptions& opt, co
     lines.push_back({k, t, (p.row(i) + p.row(j)).transpose() / 2, swapped});
   }
   st.correspondences_used = st.candidates = st.rotation_votes = lines.size();
+  // In facet order, not the index's storage order (which follows its tree): the lines taken on
+  // equal votes do not depend on which other pairs the index holds.
+  std::sort(lines.begin(), lines.end(), [&](const Line& x, const Line& y) {
+    return std::make_pair(pairs(x.pair, 0), pairs(x.pair, 1)) < std::make_pair(pairs(y.pair, 0), pairs(y.pair, 1));
+  });
 
   // Bins by direction (angle_tolerance) and midpoint (position_tolerance), in first-seen order.
   std::map<std::array<std::int64_t, 6>, std::uint32_t> slot;

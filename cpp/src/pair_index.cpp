@@ -96,13 +96,23 @@ void visit_pairs(const Points& points, const PairGrid& g, double d_max, std::siz
   }
 }
 
-/// Per active point, the number of partners j > i within d_max.
-std::vector<std::size_t> count_per_point(const Points& points, const PairGrid& g, double d_max, int threads) {
+/// Whether pair (i, j) is stored: every pair, or (max_dot < 1) those with n_i.n_j <= max_dot.
+struct NormalFilter {
+  const Points* normals = nullptr;  // null: every pair
+  double max_dot = 1.0;
+  bool operator()(std::int32_t i, std::int32_t j) const {
+    return !normals || normals->row(i).dot(normals->row(j)) <= max_dot;
+  }
+};
+
+/// Per active point, the number of partners j > i within d_max that `keep` keeps.
+std::vector<std::size_t> count_per_point(const Points& points, const PairGrid& g, double d_max, int threads,
+                                         const NormalFilter& keep = {}) {
   std::vector<std::size_t> counts(g.active.size(), 0);
   detail::parallel_chunks(g.active.size(), threads, [&](std::size_t b, std::size_t e, int) {
     for (std::size_t k = b; k < e; ++k) {
       std::size_t c = 0;
-      visit_pairs(points, g, d_max, k, k + 1, [&](std::int32_t, std::int32_t) { ++c; });
+      visit_pairs(points, g, d_max, k, k + 1, [&](std::int32_t i, std::int32_t j) { c += keep(i, j) ? 1 : 0; });
       counts[k] = c;
     }
   });
@@ -347,6 +357,8 @@ PairIndex::PairIndex(const Points& points, const Points& normals, const Mask& fr
   detail::check_size("normals: rows", points.rows(), normals.rows());
   if (free.size() != 0) detail::check_size("free: size", points.rows(), free.size());
   check_d_max(options.d_max);
+  if (!(options.max_normal_dot >= -1.0 && options.max_normal_dot <= 1.0))
+    throw std::invalid_argument("max_normal_dot: expected a number in [-1, 1], got " + fmt(options.max_normal_dot));
   if (points.rows() > std::numeric_limits<std::int32_t>::max())
     throw std::invalid_argument("points: more than 2^31 - 1 rows");
   check_points("points", points);
@@ -361,7 +373,8 @@ PairIndex::PairIndex(const Points& points, const Points& normals, const Mask& fr
 
   // Count first: refuse before storing anything.
   const PairGrid g = make_pair_grid(points, free, options.d_max);
-  const std::vector<std::size_t> counts = count_per_point(points, g, options.d_max, threads);
+  const NormalFilter keep{options.max_normal_dot < 1.0 ? &normals : nullptr, options.max_normal_dot};
+  const std::vector<std::size_t> counts = count_per_point(points, g, options.d_max, threads, keep);
   std::vector<std::size_t> offset(counts.size() + 1, 0);
   for (std::size_t k = 0; k < counts.size(); ++k) offset[k + 1] = offset[k] + counts[k];
   const std::size_t m = offset.back();
@@ -383,6 +396,7 @@ PairIndex::PairIndex(const Points& points, const Points& normals, const Mask& fr
     for (std::size_t k = b; k < e; ++k) {
       std::size_t at = offset[k];
       visit_pairs(points, g, options.d_max, k, k + 1, [&](std::int32_t i, std::int32_t j) {
+        if (!keep(i, j)) return;
         double f[3];
         detail::pair_feature_raw(points.row(i).data(), normals.row(i).data(), points.row(j).data(),
                                  normals.row(j).data(), f);

@@ -300,6 +300,9 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& sce
   io.d_max = setup.d_max;
   io.max_pairs = options.max_pairs;
   io.threads = options.threads;
+  // A jaw's antipodal alignment reads only pairs whose normals are opposed within twice its cone
+  // (both within the cone of their line): the others are not stored.
+  if (setup.antipodal) io.max_normal_dot = -std::cos(2.0 * kDefaultAntipodalCone) + 1e-6;
   CheckOptions co;
   co.depth_tolerance = setup.depth_tolerance;
   co.contact_gap = options.gap;

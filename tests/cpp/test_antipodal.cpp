@@ -180,3 +180,35 @@ TEST(Antipodal, ManyEqualsOneByOneAClosedJawAlignsNowhereAndBadPadsAreRefused) {
   bad.antipodal_cone = 2.0;
   EXPECT_THROW(Aligner(index, bad), std::invalid_argument);
 }
+
+TEST(Antipodal, AnIndexOfOpposedPairsOnlyGivesTheSameLines) {
+  // The planner stores only the pairs a jaw can use (normals opposed within twice the cone): the
+  // index holds exactly those of the full index, and the lines are the same.
+  const MovedBox b = moved_box(17);
+  PairIndexOptions io;
+  io.d_max = 0.12;
+  const PairIndex full(b.facets.points, b.facets.normals, Mask(), io);
+  io.max_normal_dot = -std::cos(2 * kDefaultAntipodalCone) + 1e-6;
+  const PairIndex opposed(b.facets.points, b.facets.normals, Mask(), io);
+  std::size_t expected = 0;
+  for (Eigen::Index k = 0; k < full.pairs().rows(); ++k)
+    expected += b.facets.normals.row(full.pairs()(k, 0)).dot(b.facets.normals.row(full.pairs()(k, 1))) <=
+                io.max_normal_dot;
+  EXPECT_EQ(opposed.size(), expected);
+  EXPECT_LT(opposed.size() * 4, full.size());
+  AlignerOptions o;
+  o.max_poses = 1000;
+  for (const double w : {0.05, 0.07, 0.11}) {
+    const auto [p, n] = jaw(w);
+    const AlignResult a = Aligner(full, o).align_antipodal(p, n), c = Aligner(opposed, o).align_antipodal(p, n);
+    ASSERT_EQ(a.poses.size(), c.poses.size()) << "w = " << w;
+    for (std::size_t i = 0; i < a.poses.size(); ++i) {
+      EXPECT_EQ(a.poses[i].rotation, c.poses[i].rotation);
+      EXPECT_EQ(a.poses[i].translation, c.poses[i].translation);
+      EXPECT_EQ(a.poses[i].votes, c.poses[i].votes);
+      EXPECT_EQ(a.poses[i].contacts, c.poses[i].contacts);
+    }
+  }
+  io.max_normal_dot = std::nan("");
+  EXPECT_THROW(PairIndex(b.facets.points, b.facets.normals, Mask(), io), std::invalid_argument);
+}

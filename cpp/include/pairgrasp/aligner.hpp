@@ -92,6 +92,9 @@
 
 namespace pairgrasp {
 
+/// The antipodal alignment's default cone (radians, 15 degrees): AlignerOptions::antipodal_cone.
+inline constexpr double kDefaultAntipodalCone = 15.0 * 3.14159265358979323846 / 180.0;
+
 /// Options for Aligner. A zero tolerance means "derive from the index spacing h".
 struct AlignerOptions {
   /// Feature tolerance box (d metres, phi, beta_ij + beta_ji). Zero: (0.5 h, 0.1, 0.1).

@@ -18,6 +18,10 @@ struct PairIndexOptions {
   double d_max = 0.2;                 ///< store pairs with d <= d_max (metres)
   std::size_t max_pairs = 100'000'000; ///< pair budget: more pairs are refused with BudgetError
   int threads = 0;                    ///< 0: all cores
+  /// Store only pairs whose unit normals' dot product n_i.n_j is at most this (1: every pair).
+  /// A parallel jaw's antipodal alignment needs only opposed pairs (-cos(2 cone)): a few per cent
+  /// of them. The budget counts the pairs stored.
+  double max_normal_dot = 1.0;
 };
 
 /// The target's pair features in a flat, balanced AABB hierarchy.
