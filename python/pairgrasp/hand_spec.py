@@ -107,6 +107,11 @@ def _world_meshes(hand, dofs):
     return out
 
 
+def _joint_axis(poses, j) -> np.ndarray:
+    """Joint j's axis in the wrist frame, for the link transforms `poses` (hand.link_transforms)."""
+    return poses[j.parent_link][:3, :3] @ np.asarray(j.origin, float)[:3, :3] @ np.asarray(j.axis, float)
+
+
 def _centroid(m):
     w = m["areas"]
     return (m["centroids"] * w[:, None]).sum(axis=0) / max(w.sum(), 1e-300)
@@ -169,8 +174,7 @@ def propose_spec(urdf: str, wrist: str, package_paths: Sequence[str] = (), name:
     closing_dofs = []
     for d, jname in enumerate(driven):
         j = joints[jname]
-        axis = poses[j.parent_link][:3, :3] @ np.asarray(j.origin, float)[:3, :3] @ np.asarray(j.axis, float)
-        if abs(float(axis @ approach)) < _CLOSING_AXIS_COS:
+        if abs(float(_joint_axis(poses, j) @ approach)) < _CLOSING_AXIS_COS:
             closing_dofs.append(d)
     fingers = set().union(*(moved[hand.dof_names[d]] for d in closing_dofs)) if closing_dofs else set()
     if not fingers:
@@ -264,7 +268,7 @@ def _synergies(hand, driven: List[str], wrist: str, urdf: str, approach: np.ndar
     at_mid = _world_meshes(hand, mid)
 
     def axis(j):
-        return poses[j.parent_link][:3, :3] @ np.asarray(j.origin, float)[:3, :3] @ np.asarray(j.axis, float)
+        return _joint_axis(poses, j)
 
     groups: Dict[str, List[int]] = {}
     for d, jn in enumerate(driven):
@@ -290,6 +294,8 @@ def _synergies(hand, driven: List[str], wrist: str, urdf: str, approach: np.ndar
     def tip_at(q, f):
         return _centroid(_world_meshes(hand, q)[tips[f]]) if tips[f] else np.zeros(3)
 
+    tip_mid = {f: _centroid(at_mid[tips[f]]) if tips[f] else np.zeros(3) for f in groups}
+
     # Each finger's closing motion: its tip's displacement when its flexion joints close together.
     motion = {}
     for f in groups:
@@ -298,7 +304,7 @@ def _synergies(hand, driven: List[str], wrist: str, urdf: str, approach: np.ndar
         q = mid.copy()
         for d in flex[f]:
             q[d] += sense[d] * 0.05 * (hi[d] - lo[d])
-        v = tip_at(q, f) - tip_at(mid, f)
+        v = tip_at(q, f) - tip_mid[f]
         v = v - (v @ approach) * approach          # across the approach: where the finger closes to
         if np.linalg.norm(v) > 1e-12:
             motion[f] = v / np.linalg.norm(v)
@@ -308,8 +314,7 @@ def _synergies(hand, driven: List[str], wrist: str, urdf: str, approach: np.ndar
     ref = max(names, key=lambda f: sum(float(motion[f] @ motion[g]) for g in names))
     fingers = [f for f in sorted(groups) if f not in motion or float(motion[f] @ motion[ref]) > 0]
     opposing = [f for f in sorted(groups) if f not in fingers]
-    centre_f = np.mean([tip_at(mid, f) for f in fingers if tips[f]], axis=0)
-    centre_o = np.mean([tip_at(mid, f) for f in opposing if tips[f]], axis=0) if opposing else centre_f
+    centre_f = np.mean([tip_mid[f] for f in fingers if tips[f]], axis=0)
 
     def closing(ds, dof):
         return {"name": dof, "step": 0.25,        # from 0 (open) to 1 (closed), within every joint's limits
@@ -322,8 +327,8 @@ def _synergies(hand, driven: List[str], wrist: str, urdf: str, approach: np.ndar
             f = finger(driven[d])
             q = mid.copy()
             q[d] += 0.05 * (hi[d] - lo[d])
-            moved = tip_at(q, f) - tip_at(mid, f) if tips[f] else np.zeros(3)
-            outward = tip_at(mid, f) - towards_centre if away else towards_centre - tip_at(mid, f)
+            moved = tip_at(q, f) - tip_mid[f] if tips[f] else np.zeros(3)
+            outward = tip_mid[f] - towards_centre if away else towards_centre - tip_mid[f]
             sign = 1.0 if float(moved @ outward) >= 0 else -1.0
             out.append({"joint": driven[d], "ratio": _r(sign * (hi[d] - lo[d]) / 2), "offset": _r(mid[d])})
         return {"name": dof, "step": 0.5, "joints": out}      # from -1 to 1 within every joint's limits
@@ -341,7 +346,6 @@ def _synergies(hand, driven: List[str], wrist: str, urdf: str, approach: np.ndar
         dofs.append(turning(turn_f, "spread", centre_f, away=True))
     if turn_o:
         dofs.append(turning(turn_o, "turn_opposing", centre_f, away=False))
-    del centre_o
     return dofs
 
 
