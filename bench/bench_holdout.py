@@ -157,7 +157,7 @@ def one_run(obj, files, hand_name, mode, out, threads, pool, trials, timeout, pl
             json.dump(doc, f)
         err = None
     else:
-        rc, wall, err = run_cmd(cmd, timeout)
+        rc, wall, err, _ = run_cmd(cmd, timeout)
     if err is not None:
         rec["error"], rec["reason"] = err, "plan failed"
         return rec
@@ -168,7 +168,7 @@ def one_run(obj, files, hand_name, mode, out, threads, pool, trials, timeout, pl
     if not any(g.get("force_closure") and g.get("epsilon", 0) > 0 for g in doc.get("grasps", [])):
         rec["reason"] = reason_without_grasp(rec["counts"])
         return rec
-    rc, wall, err = run_cmd(pairgrasp_cmd("simulate", gpath, "--top", len(doc["grasps"]), "--trials", trials,
+    rc, wall, err, _ = run_cmd(pairgrasp_cmd("simulate", gpath, "--top", len(doc["grasps"]), "--trials", trials,
                                           "--seed", SEED, "--quiet", "--no-picture"), timeout)
     rec["sim_wall"] = round(wall, 3)
     if err is not None:

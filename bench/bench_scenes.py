@@ -2,7 +2,7 @@
 
     python bench/bench_scenes.py -o OUT [--split test|dev|all] [--limit N]
         [--hands barrett,parallel_jaw,panda,pr2_gripper,shadow] [--modes support,mesh,free] [--jobs N] [--threads T]
-        [--repeat K] [--timeout S] [--markdown FILE] [--retry-errors]
+        [--repeat K] [--timeout S] [--no-simulate] [--stages] [--markdown FILE] [--retry-errors]
 
 For each object of the split (bench/objects.py: third-party meshes of ``pybullet_data``, scaled to
 hand size, split into dev and test), each hand and each mode:
@@ -32,7 +32,11 @@ those objects against the heights of the objects that were grasped, and against 
 At the end it prints (``--markdown FILE`` also writes) per hand and mode: objects with a
 force-closure grasp, mean top-1 success rate over objects (an object without a grasp counts 0) with
 a 95% bootstrap interval, median plan time, the ratio of table to free-floating plan time of the
-same object, the same for the objects taller than 5 cm at rest, and one row per run.
+same object, the same for the objects taller than 5 cm at rest, and one row per run. A second table
+says where the plan time goes: median and largest plan time, plans over 3 s, the median of each stage
+(``timings`` of grasps.json, from the plan whose total is the median), the median stored pairs and the
+plan process's peak resident memory (``ru_maxrss``); ``--stages`` adds one such row per plan. The
+real-time benchmark is ``--hands barrett --modes free --no-simulate --repeat 3 --stages``.
 """
 from __future__ import annotations
 
@@ -42,6 +46,7 @@ import os
 import statistics
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor, as_completed
@@ -111,16 +116,31 @@ def last_line(text: str) -> str:
 
 
 def run_cmd(cmd, timeout):
-    """(returncode or None on time-out, wall seconds, error line or None)."""
+    """(returncode or None on time-out, wall seconds, error line or None, peak resident memory of the
+    child in MB). The child is reaped with os.wait4, so its own peak (ru_maxrss) is read, not the
+    largest of every child so far."""
     t0 = time.perf_counter()
-    try:
-        p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
-    except subprocess.TimeoutExpired:
-        return None, time.perf_counter() - t0, f"timed out after {timeout:g} s"
-    wall = time.perf_counter() - t0
-    if p.returncode != 0:
-        return p.returncode, wall, last_line(p.stderr) or last_line(p.stdout) or f"exit status {p.returncode}"
-    return 0, wall, None
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+        p = subprocess.Popen(cmd, stdout=out, stderr=err, text=True)
+        while True:
+            pid, status, usage = os.wait4(p.pid, os.WNOHANG)
+            if pid:
+                break
+            if time.perf_counter() - t0 > timeout:
+                p.kill()
+                os.wait4(p.pid, 0)
+                p.returncode = -9
+                return None, time.perf_counter() - t0, f"timed out after {timeout:g} s", None
+            time.sleep(0.02)
+        p.returncode = os.waitstatus_to_exitcode(status)
+        wall = time.perf_counter() - t0
+        rss = usage.ru_maxrss / 1024.0  # kB on Linux
+        if p.returncode != 0:
+            out.seek(0)
+            err.seek(0)
+            return (p.returncode, wall, last_line(err.read()) or last_line(out.read()) or
+                    f"exit status {p.returncode}", rss)
+    return 0, wall, None, rss
 
 
 def reason_without_grasp(counts: dict) -> str:
@@ -160,7 +180,7 @@ def blank_record(obj, hand, mode, height, repeat):
     return {"object": obj.name, "rel": obj.rel, "split": obj.split, "hand": hand, "mode": mode,
             "height": round(height, 6), "scale": obj.scale, "repeat": repeat,
             "fc_grasps": 0, "best_epsilon": None, "plan_time": None, "plan_times": [], "wall_time": None,
-            "counts": {}, "d_max": None, "top1_force_closure": None, "held": None, "held_trial0": None,
+            "counts": {}, "stages": {}, "peak_rss_mb": None, "d_max": None, "top1_force_closure": None, "held": None, "held_trial0": None,
             "sim_outcome": None, "sim_wall": None, "sim_error": None, "error": None, "reason": None}
 
 
@@ -181,12 +201,12 @@ def plan_command(obj, files, hand, mode, out, threads, top):
 def one_run(obj, files, hand, mode, out, threads, repeat, timeout, simulate=True):
     rec = blank_record(obj, hand, mode, files["height"], repeat)
     run_dir, cmd = plan_command(obj, files, hand, mode, out, threads, TOP)
-    walls = []
+    walls, stages, rss = [], [], []
     gpath = os.path.join(run_dir, "grasps.json")
     for _ in range(repeat):
         if os.path.exists(gpath):
             os.remove(gpath)
-        rc, wall, err = run_cmd(cmd, timeout)
+        rc, wall, err, peak = run_cmd(cmd, timeout)
         walls.append(wall)
         if err is not None:
             rec["error"] = err
@@ -196,7 +216,12 @@ def one_run(obj, files, hand, mode, out, threads, repeat, timeout, simulate=True
         with open(gpath) as f:
             doc = json.load(f)
         rec["plan_times"].append(round(float(doc["timings"]["total"]), 4))
+        stages.append({k: round(float(v), 4) for k, v in doc["timings"].items()})
+        rss.append(peak)
     rec["plan_time"] = round(statistics.median(rec["plan_times"]), 4)
+    # The stages of the run whose total is the median (the lower median of an even count).
+    rec["stages"] = sorted(stages, key=lambda t: t["total"])[(len(stages) - 1) // 2]
+    rec["peak_rss_mb"] = round(max(rss), 1)
     rec["wall_time"] = round(statistics.median(walls), 3)
     rec["counts"] = doc.get("counts", {})
     rec["d_max"] = doc.get("parameters", {}).get("d_max")
@@ -211,7 +236,7 @@ def one_run(obj, files, hand, mode, out, threads, repeat, timeout, simulate=True
         return rec
     if not simulate:
         return rec
-    rc, wall, err = run_cmd(pairgrasp_cmd("simulate", gpath, "--top", 1, "--trials", TRIALS, "--seed", SEED,
+    rc, wall, err, _ = run_cmd(pairgrasp_cmd("simulate", gpath, "--top", 1, "--trials", TRIALS, "--seed", SEED,
                                           "--quiet", "--no-picture"), timeout)
     rec["sim_wall"] = round(wall, 3)
     if err is not None:
@@ -329,6 +354,47 @@ def per_run_table(runs):
     return lines
 
 
+STAGES = ("index", "schedule", "align", "settle", "evaluate", "fine_tune", "robust")
+
+
+def stage_summary(runs, hands, modes):
+    """Where the plan time goes, per hand and mode: the median and the largest plan time, how many
+    plans took over 3 s, the median of each stage (timings of grasps.json), the median stored pairs
+    and the plan process's peak resident memory."""
+    lines = ["| hand | mode | plans | median plan (s) | max plan (s) | over 3 s | "
+             + " | ".join(STAGES) + " | median pairs | peak memory, median (max) MB |",
+             "|---|---|---|---|---|---|" + "---|" * len(STAGES) + "---|---|"]
+    for hand in hands:
+        for mode in modes:
+            rs = [r for r in runs if r["hand"] == hand and r["mode"] == mode and r.get("stages")]
+            if not rs:
+                continue
+            tot = [r["plan_time"] for r in rs]
+            med = [_fmt(statistics.median(r["stages"].get(k, 0.0) for r in rs)) for k in STAGES]
+            pairs = [r["counts"].get("stored_pairs") for r in rs if r["counts"].get("stored_pairs") is not None]
+            rss = [r["peak_rss_mb"] for r in rs if r.get("peak_rss_mb")]
+            lines.append(f"| {hand} | {mode} | {len(rs)} | {_fmt(statistics.median(tot))} | {_fmt(max(tot))} "
+                         f"| {sum(t > 3.0 for t in tot)} | " + " | ".join(med)
+                         + f" | {_fmt(statistics.median(pairs) / 1e6 if pairs else None, '.2f')} M "
+                         f"| {_fmt(statistics.median(rss) if rss else None, '.0f')} ({_fmt(max(rss) if rss else None, '.0f')}) |")
+    return lines
+
+
+def stage_table(runs):
+    """One row per plan: unit facets, stored pairs, each stage's seconds, the total and peak memory."""
+    lines = ["| object | hand | mode | unit facets | pairs | " + " | ".join(STAGES) + " | plan (s) | peak MB |",
+             "|---|---|---|---|---|" + "---|" * len(STAGES) + "---|---|"]
+    for r in sorted(runs, key=lambda r: (r["hand"], r["mode"], -(r["plan_time"] or 0))):
+        if not r.get("stages"):
+            continue
+        c = r["counts"]
+        lines.append(f"| {r['object']} | {r['hand']} | {r['mode']} | {c.get('unit_facets', '–')} "
+                     f"| {c.get('stored_pairs', 0) / 1e6:.2f} M | "
+                     + " | ".join(_fmt(r["stages"].get(k)) for k in STAGES)
+                     + f" | {_fmt(r['plan_time'])} | {_fmt(r.get('peak_rss_mb'), '.0f')} |")
+    return lines
+
+
 # ----------------------------------------------------------------- main
 
 def hands_and_modes(ap, hands_arg: str, modes_arg: str, known_modes):
@@ -376,6 +442,8 @@ def main(argv=None):
     ap.add_argument("--retry-errors", action="store_true",
                     help="run again the runs recorded with a plan or simulation error")
     ap.add_argument("--markdown", default=None, help="write the summary and the per-run table here")
+    ap.add_argument("--stages", action="store_true",
+                    help="also print one row per plan with its stages' seconds, pairs and peak memory")
     args = ap.parse_args(argv)
 
     hands, modes = hands_and_modes(ap, args.hands, args.modes, MODES)
@@ -441,7 +509,12 @@ def main(argv=None):
     names = {o.name for o in objs}
     runs = [r for (obj, h, m), r in all_runs.items() if obj in names and h in hands and m in modes]
     summary, notes = summarize(runs, hands, [m for m in MODES if m in modes])
-    text = "\n".join(summary + [""] + notes + ["", f"Per run ({len(runs)}):", ""] + per_run_table(runs))
+    kept = [m for m in MODES if m in modes]
+    text = "\n".join(summary + [""] + notes + ["", "Where the plan time goes (seconds; median over the runs, each run "
+                                                 "the median of --repeat plans):", ""]
+                     + stage_summary(runs, hands, kept)
+                     + (["", "Stages per plan:", ""] + stage_table(runs) if args.stages else [])
+                     + ["", f"Per run ({len(runs)}):", ""] + per_run_table(runs))
     print()
     print(text)
     if args.markdown:
