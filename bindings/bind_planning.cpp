@@ -152,6 +152,7 @@ PlannerOptions planner_options(const pyb::kwargs& kw) {
         throw std::invalid_argument("max_field_bytes: expected a number of bytes >= 1, got " + std::string(pyb::repr(v)));
       o.max_field_bytes = static_cast<std::size_t>(bytes);
     }
+    else if (k == "mu") o.mu = real(v, k);
     else if (k == "threads") o.threads = integer(v, k);
     else throw std::invalid_argument("unknown planner option '" + k + "'");
   }
@@ -168,7 +169,9 @@ const char* const kPlannerOptionsDoc =
     "Options (keywords, as C++ PlannerOptions; None: derived): edge (m), d_max (m; None: the hand's span + edge), "
     "max_pairs, constellation ('auto', 'per_link', 'area', 'antipodal'), spacing (m), max_area_samples, depth_tolerance (m; None: "
     "edge / 4), gap (m), field_cell (m; None: max(edge / 5, 1 mm)), max_field_bytes (2 GiB), backoff (m; None: half the "
-    "hand's reach; a GraspSearch may use another), threads (0: every core).";
+    "hand's reach; a GraspSearch may use another), mu (0.5: the friction of the searches it serves; free faces that "
+    "cannot hold a force-closure grasp at it within the hand's contact span are not indexed, see graspable_faces), "
+    "threads (0: every core).";
 
 }  // namespace
 
@@ -567,7 +570,13 @@ void bind_planning(pyb::module_& m) {
       .def_readonly("depth_tolerance", &PlannerSetup::depth_tolerance, "m")
       .def_readonly("backoff", &PlannerSetup::backoff, "Largest back-off when settling (m).")
       .def_readonly("reach", &PlannerSetup::reach, "Largest distance of a constellation sample from the wrist (m).")
-      .def_readonly("field_cell", &PlannerSetup::field_cell, "Cell edge of the checker's distance fields (m).");
+      .def_readonly("field_cell", &PlannerSetup::field_cell, "Cell edge of the checker's distance fields (m).")
+      .def_readonly("contact_span", &PlannerSetup::contact_span,
+                    "Largest distance between two points of the active surfaces over the DOF range, plus the edge (m).")
+      .def_readonly("free_faces", &PlannerSetup::free_faces, "Free faces of the target.")
+      .def_readonly("graspable_faces", &PlannerSetup::graspable_faces,
+                    "Free faces that may hold a contact of a force-closure grasp (graspable_faces): the index pairs "
+                    "only their unit facets.");
 
   m.def(
       "check_planner_options", [](const pyb::kwargs& kw) { planner_options(kw); },

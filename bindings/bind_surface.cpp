@@ -5,6 +5,7 @@
 #include <pairgrasp/error.hpp>
 #include <pairgrasp/facets.hpp>
 #include <pairgrasp/features.hpp>
+#include <pairgrasp/graspable.hpp>
 #include <pairgrasp/mesh.hpp>
 #include <pairgrasp/pair_index.hpp>
 
@@ -125,6 +126,37 @@ The facet areas add up to the mesh area and have a coefficient of variation <= 0
 whose features are not much smaller than `edge`. Deterministic; runs without the GIL.
 Raises ValueError for a non-positive edge, a mask of the wrong size, or more than `max_facets`
 facets (the message names the smallest edge that fits).)doc");
+
+  // ------------------------------------------------------------------ graspable faces
+  pyb::class_<GraspableFaces>(m, "GraspableFaces",
+                              "The free faces that may hold a contact of a force-closure grasp (graspable_faces).")
+      .def_property_readonly("faces", [](const GraspableFaces& g) { return mask_to_numpy(g.faces); },
+                             "(F,) bool per face: free and graspable.")
+      .def_readonly("free", &GraspableFaces::free, "Free faces.")
+      .def_readonly("graspable", &GraspableFaces::graspable, "Free faces that are graspable.")
+      .def_readonly("widest_cone", &GraspableFaces::widest_cone,
+                    "The widest cone (half angle, radians) that held the inward normals near a point found "
+                    "ungraspable (0: none was).")
+      .def_readonly("limit", &GraspableFaces::limit,
+                    "Largest cone half angle (radians) for a point to be ungraspable: pi/2 - atan(mu) less the "
+                    "binning margin.");
+  m.def(
+      "graspable_faces",
+      [](const Mesh& mesh, double span, double mu, const pyb::object& free, int threads) {
+        const Mask mask = as_mask(free, "free", long(mesh.faces.rows()));
+        pyb::gil_scoped_release release;
+        return graspable_faces(mesh, mask, span, mu, threads);
+      },
+      "mesh"_a, "span"_a, "mu"_a = 0.5, "free"_a = pyb::none(), "threads"_a = 0, R"doc(
+Which free faces of `mesh` may hold a contact of a force-closure grasp whose contacts all lie within
+`span` metres of each other, with friction coefficient `mu` (GraspableFaces).
+
+A necessary condition: when every inward normal of the free surface within `span` of a point lies
+within 90 degrees - atan(mu) of one direction, every force a contact there can push has a positive
+component along it, so no force-closure grasp has a contact there. A face is left out only when that
+holds at every point of it (normals binned on a cube map, a margin of about 2.6 degrees; see
+graspable.hpp). The planner indexes only graspable faces (PlannerSetup.graspable_faces) and refuses a
+target with none. Raises ValueError for a non-positive span, a negative mu or a mask of the wrong size.)doc");
 
   // ------------------------------------------------------------------ pair feature
   m.def(

@@ -3,6 +3,7 @@
 
 #include <pairgrasp/error.hpp>
 #include <pairgrasp/features.hpp>
+#include <pairgrasp/graspable.hpp>
 
 #include "thread_pool.hpp"
 
@@ -11,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <exception>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -199,6 +201,8 @@ void validate(const PlannerOptions& o) {
   check_value("gap", o.gap, true);
   check_value("backoff", o.backoff, true);
   check_value("field_cell", o.field_cell, false);
+  if (!(o.mu >= 0.0) || !std::isfinite(o.mu))
+    throw std::invalid_argument("mu: expected a finite number >= 0, got " + std::to_string(o.mu));
   if (o.max_pairs < 1) throw std::invalid_argument("max_pairs: expected an integer >= 1, got 0");
   if (o.max_field_bytes < 1) throw std::invalid_argument("max_field_bytes: expected an integer >= 1, got 0");
   if (o.max_area_samples < 3)
@@ -206,7 +210,37 @@ void validate(const PlannerOptions& o) {
   if (o.threads < 0) throw std::invalid_argument("threads: expected an integer >= 0, got " + std::to_string(o.threads));
 }
 
-PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& free, const PlannerOptions& o) {
+namespace {
+
+// The diagonal of the active surfaces' bounding box in the wrist frame, largest over `samples`:
+// no two contacts of a grasp are farther apart (to the DOF sampling).
+double contact_span(const Hand& hand, const std::vector<Eigen::VectorXd>& samples) {
+  double span = 0.0;
+  for (const Eigen::VectorXd& q : samples) {
+    const std::vector<Pose> poses = hand.link_poses(q);
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+    for (std::size_t l = 0; l < hand.links().size(); ++l) {
+      const HandLink& link = hand.links()[l];
+      for (int f : link.active_faces)
+        for (int k = 0; k < 3; ++k) {
+          const Eigen::Vector3d p = poses[l] * link.mesh.vertices.row(link.mesh.faces(f, k)).transpose();
+          lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+        }
+    }
+    if ((hi - lo).allFinite()) span = std::max(span, (hi - lo).norm());
+  }
+  return span;
+}
+
+std::string degrees(double radians) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.0f", radians * 180.0 / 3.14159265358979323846);
+  return buf;
+}
+
+// resolve_planner(), and in `index_free` the faces whose unit facets the index pairs: the free
+// faces that may hold a contact of a force-closure grasp (`free` itself when they all may).
+PlannerSetup resolve(const Hand& hand, const Mesh& target, const Mask& free, const PlannerOptions& o, Mask& index_free) {
   validate(o);
   PlannerSetup s;
   std::tie(s.mode, s.antipodal) = choose_mode(hand, o.constellation);
@@ -228,7 +262,24 @@ PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& f
     s.d_max = span + edge;
   }
   check_target_scale(target, s.d_max);
-  if (!o.edge) edge = suggest_edge(target, s.d_max, o.max_pairs, free, edge);
+  s.contact_span = contact_span(hand, corners) + edge;
+  const GraspableFaces g = graspable_faces(target, free, s.contact_span, o.mu, o.threads);
+  s.free_faces = g.free;
+  s.graspable_faces = g.graspable;
+  if (g.free > 0 && g.graspable == 0) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "%.3g m (the hand's contact span) with friction mu = %.3g", s.contact_span, o.mu);
+    throw std::invalid_argument(
+        (target.source.empty() ? std::string("target") : target.source) +
+        ": no part of the free surface can hold a force-closure grasp within " + buf +
+        ": near every point, the surface's inward normals lie within " + degrees(g.widest_cone) +
+        " degrees of one direction, and contact forces that oppose each other need them spread beyond " +
+        degrees(0.5 * 3.14159265358979323846 - std::atan(o.mu)) +
+        " degrees (surfaces that could oppose each other are farther apart than the hand spans); a larger hand, a "
+        "smaller target or more of it free, or a larger mu");
+  }
+  index_free = g.graspable == g.free ? free : g.faces;
+  if (!o.edge) edge = suggest_edge(target, s.d_max, o.max_pairs, index_free, edge);
   s.edge = edge;
   if (s.mode == ConstellationMode::Area) {
     if (o.spacing) {
@@ -252,6 +303,13 @@ PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& f
   // cell every plan used before the cell followed h (a finer one costs memory and moved grasps).
   s.field_cell = o.field_cell ? *o.field_cell : std::max(s.edge / 5.0, 0.001);
   return s;
+}
+
+}  // namespace
+
+PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& free, const PlannerOptions& o) {
+  Mask index_free;
+  return resolve(hand, target, free, o, index_free);
 }
 
 struct GraspPlanner::State {
@@ -291,7 +349,8 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& sce
       given, scene.occlusion, 0.5 * (options.edge ? *options.edge : finest_edge(given)), options.threads);
   const Mesh& target = surface.mesh;
   const Mask& free = surface.free;
-  const PlannerSetup setup = resolve_planner(hand, target, free, options);
+  Mask index_free;
+  const PlannerSetup setup = resolve(hand, target, free, options, index_free);
   std::vector<Obstacle> obstacles = scene.obstacles;
   if (scene.occlusion.support)
     obstacles.push_back(Obstacle{"support", support_box(*scene.occlusion.support, target,
@@ -315,7 +374,7 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& sce
     co.support = SupportPlane::under(target, obstacles[i].mesh, scene.occlusion.distance);
   // An edge far over the pair budget is refused before anything is built: the checker's fields are
   // sized by the same edge (its depth tolerance), and at a tiny edge they alone take minutes.
-  check_pair_estimate(target, setup.edge, free, io);
+  check_pair_estimate(target, setup.edge, index_free, io);
   check_field_estimate(target, free, co, options.max_field_bytes);
   // The pair index and the checker's fields are built at once; an error of the index is reported
   // first, whichever finished first.
@@ -325,7 +384,7 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& sce
   detail::parallel_for(2, options.threads, [&](std::size_t k) {
     try {
       if (k == 0) {
-        index.emplace(build_target_index(target, setup.edge, free, io));
+        index.emplace(build_target_index(target, setup.edge, index_free, io));
       } else {
         checker = std::make_unique<GraspChecker>(hand, target, free, obstacles, co);
       }

@@ -43,6 +43,11 @@ FinishOptions finish_options(const PlanOptions& o) {
 // The options with step and backoff resolved against the planner.
 PlanOptions resolved(const GraspPlanner& planner, PlanOptions o) {
   validate(o);
+  // The planner's index leaves out the surface that cannot hold a force-closure grasp at its mu.
+  if (o.mu > planner.options().mu)
+    throw std::invalid_argument("mu: " + std::to_string(o.mu) + " exceeds the planner's mu of " +
+                                std::to_string(planner.options().mu) +
+                                " (PlannerOptions::mu, the friction its index was built for); build the planner with it");
   if (!o.backoff) o.backoff = planner.setup().backoff;
   if (!o.hull_rank) o.hull_rank = o.contacts_per_link > 0 ? hull_rank_for(finish_options(o)) : 0;
   return o;

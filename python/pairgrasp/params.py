@@ -76,7 +76,10 @@ class PlanParams:
             link (:func:`pairgrasp.reduce_contacts`, a lower bound); the returned grasps are scored
             again with every contact. None or 0: every contact throughout (slower by ~10x on the
             Barrett hand, whose links report patches of ~100 contacts).
-        mu, edges: friction coefficient and friction-pyramid edges.
+        mu, edges: friction coefficient and friction-pyramid edges. The planner built with ``mu``
+            indexes only the free faces that can hold a contact of a force-closure grasp at it within
+            the hand's contact span (:func:`pairgrasp.graspable_faces`), and refuses a target with
+            none; ``Planner.plan(mu=...)`` may lower it, not raise it.
         rank: how the returned grasps are ordered. ``"load"`` (the default): of the
             ``max(top, 10)`` best distinct grasps by epsilon, rank 1 is the force-closure grasp
             whose contacts resist a pure force at the centre of mass best along their worst of
@@ -165,7 +168,8 @@ class PlanParams:
         return dict(edge=self.edge, d_max=self.d_max, max_pairs=self.max_pairs, constellation=self.constellation,
                     spacing=self.spacing, max_area_samples=self.max_area_samples,
                     depth_tolerance=self.depth_tolerance, gap=self.gap, backoff=self.backoff,
-                    field_cell=self.field_cell, max_field_bytes=self.max_field_memory * 1e9, threads=self.threads)
+                    field_cell=self.field_cell, max_field_bytes=self.max_field_memory * 1e9, mu=self.mu,
+                    threads=self.threads)
 
     def search_options(self) -> dict:
         """The fields of one plan, as :class:`pairgrasp.GraspSearch` keywords (C++ PlanOptions)."""

@@ -1,7 +1,10 @@
 // The free surface per patch (free_surface.hpp): a coarse box on a table keeps its sides free above
 // the covered strip; the refined mesh is the same closed surface; the support plane and a table mesh
-// give the same free surface; paint regions mark points, not face centroids; bad input throws.
+// give the same free surface; paint regions mark points, not face centroids; bad input throws. And
+// where on the free surface a force-closure grasp can be at all (graspable.hpp).
 #include <pairgrasp/free_surface.hpp>
+#include <pairgrasp/graspable.hpp>
+#include <pairgrasp/planner.hpp>
 
 #include <gtest/gtest.h>
 
@@ -11,6 +14,7 @@
 #include <string>
 #include <utility>
 
+#include "test_hands.hpp"
 #include "test_meshes.hpp"
 
 namespace {
@@ -281,6 +285,46 @@ TEST(FreeSurface, SupportBoxLiesUnderThePlaneAndCoversTheFootprint) {
   EXPECT_NEAR(table.vertices.col(2).minCoeff(), -kHalf - 0.1, 1e-12);
   EXPECT_NEAR(table.vertices.col(0).maxCoeff(), kHalf + 0.1, 1e-12);
   EXPECT_NEAR(table.vertices.col(1).minCoeff(), -kHalf - 0.1, 1e-12);
+}
+
+}  // namespace
+
+// Graspable faces (graspable.hpp): a box far larger than the hand's span has none (at a corner the
+// three inward normals lie arccos(1/sqrt(3)) = 54.7 degrees from the diagonal, inside the 63.4 degrees
+// of mu = 0.5), one whose opposite faces lie within the span keeps them all, and the planner refuses the
+// large box before building anything, naming mu.
+namespace {
+
+TEST(Graspable, ABoxFarLargerThanTheSpanHasNoGraspableFace) {
+  const Mesh big = tmesh::box_mesh(Vector3d(-0.75, -0.4, -0.4), Vector3d(0.75, 0.4, 0.4), 1, "big");
+  const GraspableFaces none = graspable_faces(big, Mask(), 0.27, 0.5);
+  EXPECT_EQ(none.free, 12u);
+  EXPECT_EQ(none.graspable, 0u);
+  EXPECT_GE(none.widest_cone, std::acos(1.0 / std::sqrt(3.0)));
+  EXPECT_EQ(graspable_faces(big, Mask(), 1.0, 0.5).graspable, 12u);  // 0.8 m apart: within a 1 m span
+  EXPECT_EQ(graspable_faces(big, Mask(), 0.27, 1.0).graspable, 12u);  // mu = 1: cones of 45 degrees
+  const Mesh small = tmesh::box_mesh(Vector3d::Constant(-kHalf), Vector3d::Constant(kHalf), 3);
+  EXPECT_EQ(graspable_faces(small, Mask(), 0.27, 0.5).graspable, std::size_t(small.faces.rows()));
+  EXPECT_THROW(graspable_faces(small, Mask(), 0.0, 0.5), std::invalid_argument);
+  EXPECT_THROW(graspable_faces(small, Mask(), 0.2, -1.0), std::invalid_argument);
+  EXPECT_THROW(graspable_faces(small, Mask::Constant(3, true), 0.2, 0.5), std::invalid_argument);
+}
+
+TEST(Graspable, ThePlannerRefusesATargetWithNothingGraspable) {
+  const Hand hand = pairgrasp::testing_hands::barrett();
+  const Mesh big = tmesh::box_mesh(Vector3d(-0.75, -0.4, -0.4), Vector3d(0.75, 0.4, 0.4), 1, "big");
+  try {
+    resolve_planner(hand, big, Mask(), PlannerOptions());
+    FAIL() << "no refusal";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("force-closure"), std::string::npos) << what;
+    EXPECT_NE(what.find("mu = 0.5"), std::string::npos) << what;
+  }
+  const PlannerSetup s = resolve_planner(hand, tmesh::box_mesh(Vector3d::Constant(-kHalf), Vector3d::Constant(kHalf)),
+                                         Mask(), PlannerOptions());
+  EXPECT_EQ(s.graspable_faces, 12u);
+  EXPECT_GT(s.contact_span, pairgrasp::hand_span(hand));
 }
 
 }  // namespace

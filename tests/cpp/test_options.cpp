@@ -62,6 +62,8 @@ TEST(Options, EveryBadPlannerOptionIsRefusedByName) {
       {"max_pairs", [](P& o) { o.max_pairs = 0; }},
       {"max_field_bytes", [](P& o) { o.max_field_bytes = 0; }},
       {"max_area_samples", [](P& o) { o.max_area_samples = 2; }},
+      {"mu", [](P& o) { o.mu = -0.1; }},
+      {"mu", [](P& o) { o.mu = kInf; }},
       {"threads", [](P& o) { o.threads = -1; }},
   });
   PlannerOptions zero_ok;  // lengths that may be zero

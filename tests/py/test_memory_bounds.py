@@ -160,9 +160,10 @@ def test_field_estimate_bounds_the_built_fields_from_above():
 
 
 def test_fields_over_the_budget_are_refused_naming_the_budget(tmp_path):
-    # A 1.5 m box at a 0.5 mm cell: its surface (6.1 m^2) alone needs 6.1 / (2 mm)^2 bricks of 125 nodes
-    # in a shell about two bricks thick, over 2 GB of floats: far over the default budget.
-    path = _box(tmp_path, (1.5, 0.8, 0.8))
+    # A 1.5 m x 1.5 m slab 10 cm thick (graspable across its thickness) at a 0.5 mm cell: its surface
+    # (5.1 m^2) alone needs 5.1 / (2 mm)^2 bricks of 125 nodes in a shell about two bricks thick, over
+    # 2 GB of floats: far over the default budget.
+    path = _box(tmp_path, (1.5, 1.5, 0.1))
     with pytest.warns(pg.InputWarning, match="times the hand's span"):  # the early word, then the refusal
         with pytest.raises(ValueError, match=r"over the budget of 2 GB \(max_field_memory"):
             pg.Planner(str(BARRETT), str(path), edge=0.02, field_cell=0.0005)

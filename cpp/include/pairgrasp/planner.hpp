@@ -63,6 +63,11 @@ struct PlannerOptions {
   /// Memory budget of the target's distance fields (bytes), checked on an estimate before they
   /// are built (BudgetError past it).
   std::size_t max_field_bytes = std::size_t(2) << 30;
+  /// Friction coefficient of the searches this planner serves (PlanOptions::mu may not exceed it).
+  /// Free faces that cannot hold a contact of a force-closure grasp at this friction within the
+  /// hand's contact span (graspable_faces() of graspable.hpp) are not indexed, and a target with
+  /// none left is refused at once.
+  double mu = 0.5;
   int threads = 0;  ///< 0: every core
 };
 
@@ -78,6 +83,13 @@ struct PlannerSetup {
   double backoff = 0.0;          ///< m
   double reach = 0.0;            ///< largest distance of a constellation sample from the wrist (m)
   double field_cell = 0.0;       ///< cell edge of the checker's distance fields (m)
+  /// Largest distance between two points of the active surfaces over the DOF range (the diagonal
+  /// of their bounding box in the wrist frame, at the corners and middles of every DOF), plus h (m).
+  double contact_span = 0.0;
+  std::size_t free_faces = 0;       ///< free faces of the target
+  /// Free faces that may hold a contact of a force-closure grasp (graspable_faces()): the index
+  /// holds the pairs of their unit facets only.
+  std::size_t graspable_faces = 0;
 };
 
 /// The largest distance between two per-link constellation samples of `hand` over its DOF range
@@ -107,9 +119,11 @@ double finest_edge(const Mesh& target);
 void validate(const PlannerOptions& options);
 
 /// Resolves PlannerOptions for a hand and a target (see each option), checking the target's scale
-/// against d_max (check_target_scale()) before anything large is computed. Throws
-/// std::invalid_argument for bad options (naming them), a target at the wrong scale or a hand whose
-/// active surfaces give no two distinct samples.
+/// against d_max (check_target_scale()) and its free surface against the hand's contact span
+/// (graspable_faces() at PlannerOptions::mu) before anything large is computed. Throws
+/// std::invalid_argument for bad options (naming them), a target at the wrong scale, a free surface
+/// no part of which can hold a force-closure grasp (naming the cone its normals fit in) or a hand
+/// whose active surfaces give no two distinct samples.
 PlannerSetup resolve_planner(const Hand& hand, const Mesh& target, const Mask& free, const PlannerOptions& options);
 
 /// Per-DOF sample values: lower, lower + step, ..., and upper (a last, shorter step when the range is
