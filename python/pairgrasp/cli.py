@@ -67,7 +67,7 @@ def _cmd_info(args) -> int:
 
 # The PlanParams fields the target options (_add_target_options) set, when given.
 _PLAN_PARAMS = ("schedule", "step", "top", "seed", "time_limit", "edge", "field_cell", "max_field_memory", "threads",
-                "rank")
+                "rank", "mu")
 
 
 def _plan_params(args) -> dict:
@@ -397,6 +397,9 @@ def _add_target_options(p, threads_help="worker threads (default 0: every core)"
                    help="cell of the collision checker's distance fields (m; default h/5 but at least 1 mm)")
     p.add_argument("--max-field-memory", type=_positive_float, metavar="GB",
                    help="refuse a target whose distance fields would take more (default 2 GB)")
+    p.add_argument("--mu", type=_nonnegative_float, metavar="MU",
+                   help="friction coefficient of the contacts (default 0.5); surface that cannot hold a "
+                   "force-closure grasp at it within the hand's span is not searched")
     p.add_argument("--time-limit", type=_positive_float, metavar="S",
                    help="stop searching after S seconds and return the best grasps so far (default: no limit)")
     p.add_argument("--top", type=_count(1), default=10, help="grasps kept (default 10)")

@@ -164,3 +164,17 @@ def test_a_search_may_not_raise_the_planners_friction():
     assert planner.plan(progress=False, mu=0.3).params.mu == 0.3
     with pytest.raises(ValueError, match="mu"):
         pg.Planner(str(JAW), box((0.04, 0.04, 0.04)), mu=-0.1)
+
+
+def test_the_cli_takes_mu_and_records_it(tmp_path):
+    """`plan --mu 0.3` plans with it (grasps.json's parameters); a negative mu is one error line."""
+    r = subprocess.run([sys.executable, "-m", "pairgrasp", "plan", "--hand", str(JAW), "--target",
+                        str(ROOT / "models" / "targets" / "box.stl"), "--mu", "0.3", "--top", "1", "--pictures", "0",
+                        "--quiet", "-o", str(tmp_path / "out")], capture_output=True, text=True, cwd=ROOT,
+                       env=dict(os.environ), timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert json.loads((tmp_path / "out" / "grasps.json").read_text())["parameters"]["mu"] == 0.3
+    bad = subprocess.run([sys.executable, "-m", "pairgrasp", "plan", "--hand", str(JAW), "--target",
+                          str(ROOT / "models" / "targets" / "box.stl"), "--mu", "-1", "-o", str(tmp_path / "bad")],
+                         capture_output=True, text=True, cwd=ROOT, env=dict(os.environ), timeout=300)
+    assert bad.returncode != 0 and bad.stderr.count("pairgrasp: error:") == 1 and "--mu" in bad.stderr
