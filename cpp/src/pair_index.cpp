@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -204,6 +205,7 @@ class PairBudgetExceeded : public BudgetError {
 };
 
 constexpr double kFacetAreaPerEdge2 = 0.86602540378443865;  // unit facet area / edge^2 (tessellate)
+constexpr double kFarOver = 1.5;  // estimated pairs over this times the budget: surely over it
 
 /// What suggest_edge() and build_target_index() estimate from: the surface area taking part and
 /// the fraction of facet pairs within d_max, measured on a coarse tessellation (about 1500 facets).
@@ -585,11 +587,18 @@ double suggest_edge(const Mesh& mesh, double d_max, std::size_t max_pairs, const
   if (max_pairs == 0) throw std::invalid_argument("max_pairs: expected at least 1, got 0");
   if (!std::isfinite(min_edge) || min_edge < 0.0)
     throw std::invalid_argument("min_edge: expected a finite length >= 0 (m), got " + fmt(min_edge));
-  if (min_edge > 0.0) {
+  // The count at min_edge is skipped when even the coarse estimate is far over the budget (the
+  // estimate is good to some per cent, as build_target_index() trusts it): on a large target that
+  // count alone tessellated millions of facets and counted billions of pairs.
+  const PairEstimate all{estimate_area(mesh), 1.0};
+  std::optional<PairEstimate> est;
+  if (min_edge > 0.0 && all.pairs(min_edge) > kFarOver * double(max_pairs)) est = estimate_pairs(mesh, d_max, free_faces);
+  if (min_edge > 0.0 && !(est && est->pairs(min_edge) > kFarOver * double(max_pairs))) {
     const UnitFacets f = tessellate(mesh, min_edge, free_faces);
     if (count_pairs(f.points, d_max, f.free) <= max_pairs) return min_edge;
   }
-  return std::max(min_edge, suggest_edge_from(mesh, d_max, max_pairs, free_faces, estimate_pairs(mesh, d_max, free_faces)));
+  if (!est) est = estimate_pairs(mesh, d_max, free_faces);
+  return std::max(min_edge, suggest_edge_from(mesh, d_max, max_pairs, free_faces, *est));
 }
 
 namespace {
@@ -621,7 +630,7 @@ BudgetError refusal(const Mesh& mesh, double edge, const Mask& free_faces, const
 void refuse_far_over(const Mesh& mesh, double edge, const Mask& free_faces, const PairIndexOptions& options,
                      const PairEstimate& est) {
   const double estimated = est.pairs(edge);
-  if (estimated > 1.5 * double(pair_limit(options.max_pairs)))
+  if (estimated > kFarOver * double(pair_limit(options.max_pairs)))
     throw refusal(mesh, edge, free_faces, options, est, "about " + fmt(estimated, 3));
 }
 
@@ -630,7 +639,7 @@ void refuse_far_over(const Mesh& mesh, double edge, const Mask& free_faces, cons
 // makes at `edge` are estimated, and when that fits, so does the estimate.
 void refuse_far_over(const Mesh& mesh, double edge, const Mask& free_faces, const PairIndexOptions& options) {
   const PairEstimate all{estimate_area(mesh), 1.0};
-  if (all.pairs(edge) > 1.5 * double(pair_limit(options.max_pairs)))
+  if (all.pairs(edge) > kFarOver * double(pair_limit(options.max_pairs)))
     refuse_far_over(mesh, edge, free_faces, options, estimate_pairs(mesh, options.d_max, free_faces));
 }
 

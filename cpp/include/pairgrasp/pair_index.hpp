@@ -99,7 +99,8 @@ std::size_t count_pairs(const Points& points, double d_max, const Mask& free = M
 /// first estimated from the area (facets are about (sqrt(3)/2) edge^2 each and the fraction of
 /// facet pairs within d_max is measured on a coarse tessellation), then checked by tessellating
 /// and counting, refining the edge until the count fits. A positive `min_edge` (metres) is the
-/// finest edge wanted: it is counted first and returned at once when its pairs fit, and the
+/// finest edge wanted: it is counted first and returned at once when its pairs fit (unless the
+/// estimate at it is over 1.5 times the budget: then it cannot fit, and is not counted), and the
 /// result is never finer than it.
 /// Throws std::invalid_argument for d_max <= 0, max_pairs == 0, a negative or non-finite min_edge
 /// or a mask of the wrong size.
