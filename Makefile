@@ -5,6 +5,14 @@ BUILD     ?= build/cpp
 JOBS      ?= $(shell nproc 2>/dev/null || echo 2)
 GENERATOR := $(shell command -v ninja >/dev/null 2>&1 && echo Ninja || echo "Unix Makefiles")
 PYBIND11_DIR = $(shell $(PYTHON) -c "import pybind11; print(pybind11.get_cmake_dir())" 2>/dev/null)
+# The Release build and the wheel's compile the library with the same compiler and flags: through
+# ccache (when installed), the second compiles almost nothing. CMake's default compiler is c++; the
+# wheel's build is told so (it would take g++, the same compiler under a name ccache tells apart).
+CCACHE      = $(shell command -v ccache 2>/dev/null)
+LAUNCHER    = $(if $(CCACHE),-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+WHEEL_CXX   = $(shell grep -s '^CMAKE_CXX_COMPILER:' $(BUILD)/CMakeCache.txt | cut -d= -f2)
+WHEEL_CACHE = $(if $(CCACHE),--config-settings=cmake.define.CMAKE_CXX_COMPILER_LAUNCHER=ccache \
+              $(if $(WHEEL_CXX),--config-settings=cmake.define.CMAKE_CXX_COMPILER=$(WHEEL_CXX)))
 OUT       ?= out/demo
 # Sanitizer and fuzzing builds, each in its own folder (see docs/reliability.md).
 ASAN_BUILD ?= build/asan
@@ -34,7 +42,7 @@ deps:
 # runs with PYTHONPATH=$(BUILD)/python, without building a wheel). Configured every time (cheap when
 # nothing changed), so a build folder configured without the extension gets it.
 build: deps
-	cmake -S . -B $(BUILD) -G "$(GENERATOR)" -DCMAKE_BUILD_TYPE=Release \
+	cmake -S . -B $(BUILD) -G "$(GENERATOR)" -DCMAKE_BUILD_TYPE=Release $(LAUNCHER) \
 	  -DPAIRGRASP_BUILD_TESTS=ON -DPAIRGRASP_BUILD_PYTHON=ON -DPython_EXECUTABLE=$$(command -v $(PYTHON)) \
 	  -Dpybind11_DIR=$(PYBIND11_DIR) >/dev/null
 	cmake --build $(BUILD) -j $(JOBS)
@@ -44,7 +52,7 @@ ctest: build
 
 # What users run: the package built and installed by pip (scikit-build-core).
 install: deps
-	$(PYTHON) -m pip install -q --disable-pip-version-check .
+	$(PYTHON) -m pip install -q --disable-pip-version-check $(WHEEL_CACHE) .
 
 pytest: build
 	PYTHONPATH=$(BUILD)/python $(PYTHON) -m pytest tests/py -q -m "not slow"

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what pairgrasp needs to build and test: C++ libraries from Debian (clang and its fuzzer
-# runtime for the libFuzzer harnesses, chromium for the viewer's browser test), Python packages from
+# runtime for the libFuzzer harnesses, chromium for the viewer's browser test, ccache so that the
+# wheel's build reuses the Release build's objects), Python packages from
 # PyPI (atheris for the Python harness, viser for the viewer, Ray for `pairgrasp batch --engine ray`).
 # Safe to run again; uses sudo only when not root.
 set -euo pipefail
@@ -14,6 +15,7 @@ DEBIAN_PACKAGES=(
   libgtest-dev libbenchmark-dev nlohmann-json3-dev libqhull-dev
   clang libclang-rt-14-dev
   chromium
+  ccache
 )
 
 missing=()
