@@ -146,6 +146,11 @@ GraspableFaces graspable_faces(const Mesh& mesh, const Mask& free, double span, 
     total += (n + 1.0) * (n + 2.0) / 2.0;
   }
   if (out.free == 0) return out;
+  if (!(out.limit > 0.0)) {  // friction so high that no cone of normals can be ruled out
+    for (Eigen::Index f = 0; f < nf; ++f) out.faces[f] = is_free(f);
+    out.graspable = out.free;
+    return out;
+  }
   if (total > kMaxSamples || ((hi - lo) / spacing).maxCoeff() > double(kOffset - 2))
     throw std::invalid_argument("span: " + std::to_string(span) + " m is too small for a target " +
                                 std::to_string((hi - lo).maxCoeff()) + " m across");
@@ -199,7 +204,6 @@ GraspableFaces graspable_faces(const Mesh& mesh, const Mask& free, double span, 
     Bins seen;
     std::vector<int> bins;
     for (std::size_t k = begin; k < end; ++k) {
-      if (!(out.limit > 0.0)) break;
       seen.reset();
       bins.clear();
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();

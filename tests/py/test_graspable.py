@@ -57,6 +57,10 @@ def test_friction_decides_the_corner():
     big = box((1.5, 0.8, 0.8))
     assert pg.graspable_faces(big, 0.27, 0.5).graspable == 0
     assert pg.graspable_faces(big, 0.27, 1.0).graspable == 12
+    # mu = 100: 90 - atan(100) = 0.6 degrees, below the binning margin: nothing is ruled out, not
+    # even a sheet whose normals are all the same.
+    sheet = pg.make_mesh(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float), np.array([[0, 1, 2]]), "sheet")
+    assert pg.graspable_faces(sheet, 0.27, 100.0).graspable == 1
 
 
 def test_a_flat_sheet_and_a_partly_reachable_scene():
