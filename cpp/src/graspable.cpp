@@ -3,10 +3,10 @@
 #include <pairgrasp/error.hpp>
 #include <pairgrasp/graspable.hpp>
 
+#include "surface_grid.hpp"
 #include "thread_pool.hpp"
 
 #include <algorithm>
-#include <array>
 #include <bitset>
 #include <cmath>
 #include <cstdint>
@@ -74,11 +74,7 @@ const CubeMap& cube_map() {
   return map;
 }
 
-using Key = std::int64_t;
-constexpr std::int64_t kOffset = 1 << 20;
-Key key_of(std::int64_t x, std::int64_t y, std::int64_t z) {
-  return ((x + kOffset) << 42) | ((y + kOffset) << 21) | (z + kOffset);
-}
+constexpr double kMaxCells = double((1 << 21) - 8);  // per axis: GridFrame keeps the cell as asked
 
 // The smallest half angle (radians) of a cap about one direction holding every centre of `bins`
 // that the search finds: from the mean direction, Badoiu-Clarkson steps towards the minimum
@@ -151,12 +147,13 @@ GraspableFaces graspable_faces(const Mesh& mesh, const Mask& free, double span, 
     out.graspable = out.free;
     return out;
   }
-  if (total > kMaxSamples || ((hi - lo) / spacing).maxCoeff() > double(kOffset - 2))
+  if (total > kMaxSamples || ((hi - lo) / spacing).maxCoeff() > kMaxCells)
     throw std::invalid_argument("span: " + std::to_string(span) + " m is too small for a target " +
                                 std::to_string((hi - lo).maxCoeff()) + " m across");
 
   // Per face the cells of its samples; per occupied cell the bins of its samples' inward normals.
-  std::unordered_map<Key, std::size_t> index;
+  const detail::GridFrame frame(lo, hi, spacing);
+  std::unordered_map<std::uint64_t, std::size_t> index;
   std::vector<Cell> cells;
   std::vector<std::vector<std::size_t>> face_cells(static_cast<std::size_t>(nf));
   for (Eigen::Index f = 0; f < nf; ++f) {
@@ -172,9 +169,9 @@ GraspableFaces graspable_faces(const Mesh& mesh, const Mask& free, double span, 
     for (int i = 0; i <= n; ++i)
       for (int j = 0; i + j <= n; ++j) {
         const Eigen::Vector3d p = a + (double(i) / n) * ab + (double(j) / n) * ac;
-        const Eigen::Array3d g = ((p - lo) / spacing).array().floor();
-        const auto [it, fresh] = index.emplace(key_of(std::int64_t(g[0]), std::int64_t(g[1]), std::int64_t(g[2])), cells.size());
-        if (fresh) cells.push_back(Cell{lo + spacing * (g + 0.5).matrix(), {}});
+        const Eigen::Array3i g = frame.coords(p.data());
+        const auto [it, fresh] = index.emplace(detail::GridFrame::key(g[0], g[1], g[2]), cells.size());
+        if (fresh) cells.push_back(Cell{lo + spacing * (g.cast<double>() + 0.5).matrix(), {}});
         std::vector<int>& bins = cells[it->second].bins;
         if (std::find(bins.begin(), bins.end(), bin) == bins.end()) bins.push_back(bin);
         mine.push_back(it->second);
@@ -187,15 +184,8 @@ GraspableFaces graspable_faces(const Mesh& mesh, const Mask& free, double span, 
   // spacing * sqrt(3) / 2 of it; the same holds for every surface point y within span of x. So the
   // cells whose centres lie within `reach` of a cell's centre hold every normal near its samples.
   const double reach = span + spacing * (2.0 + std::sqrt(3.0));
-  std::unordered_map<Key, std::vector<std::size_t>> buckets;
-  auto bucket = [&](const Eigen::Vector3d& c) {
-    const Eigen::Array3d g = ((c - lo) / reach).array().floor();
-    return std::array<std::int64_t, 3>{std::int64_t(g[0]), std::int64_t(g[1]), std::int64_t(g[2])};
-  };
-  for (std::size_t k = 0; k < cells.size(); ++k) {
-    const auto b = bucket(cells[k].centre);
-    buckets[key_of(b[0], b[1], b[2])].push_back(k);
-  }
+  detail::StaticGrid buckets;
+  buckets.build(detail::GridFrame(lo, hi, reach), cells.size(), [&](std::size_t k) { return cells[k].centre.data(); });
 
   // Verdict per cell: the cone found (radians) when hopeless, -1 when not.
   const double least_mean = std::cos(std::max(0.0, out.limit));
@@ -207,22 +197,21 @@ GraspableFaces graspable_faces(const Mesh& mesh, const Mask& free, double span, 
       seen.reset();
       bins.clear();
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      const auto b = bucket(cells[k].centre);
-      for (int dx = -1; dx <= 1; ++dx)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dz = -1; dz <= 1; ++dz) {
-            const auto it = buckets.find(key_of(b[0] + dx, b[1] + dy, b[2] + dz));
-            if (it == buckets.end()) continue;
-            for (std::size_t q : it->second) {
-              if ((cells[q].centre - cells[k].centre).squaredNorm() > reach * reach) continue;
-              for (int bin : cells[q].bins)
-                if (!seen.test(static_cast<std::size_t>(bin))) {
-                  seen.set(static_cast<std::size_t>(bin));
-                  bins.push_back(bin);
-                  sum += map.centre[bin];
-                }
-            }
+      const Eigen::Array3i b = buckets.frame().coords(cells[k].centre.data());
+      for (int ring = 0; ring <= 1; ++ring)
+        detail::for_each_ring_cell(b, ring, [&](int x, int y, int z) {
+          const auto [first, last] = buckets.cell(x, y, z);
+          for (std::uint32_t i = first; i < last; ++i) {
+            const std::size_t q = buckets.items()[i];
+            if ((cells[q].centre - cells[k].centre).squaredNorm() > reach * reach) continue;
+            for (int bin : cells[q].bins)
+              if (!seen.test(static_cast<std::size_t>(bin))) {
+                seen.set(static_cast<std::size_t>(bin));
+                bins.push_back(bin);
+                sum += map.centre[bin];
+              }
           }
+        });
       // Centres within `limit` of one direction v have a mean whose component along v is at least
       // cos(limit): a shorter mean proves the bins surround too much.
       const Eigen::Vector3d mean = sum / static_cast<double>(bins.size());
