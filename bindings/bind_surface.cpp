@@ -69,11 +69,17 @@ Mask as_mask(const pyb::handle& obj, const std::string& name, long n) {
   return m;
 }
 
-PairIndexOptions index_options(double d_max, std::size_t max_pairs, int threads) {
+PairIndexOptions index_options(double d_max, std::size_t max_pairs, int threads, long max_pairs_per_cell = 0,
+                               const pyb::object& cell = pyb::none()) {
   PairIndexOptions o;
   o.d_max = d_max;
   o.max_pairs = max_pairs;
   o.threads = threads;
+  if (max_pairs_per_cell < 0)
+    throw std::invalid_argument("max_pairs_per_cell: expected an integer >= 0 (0: every pair), got " +
+                                std::to_string(max_pairs_per_cell));
+  o.max_pairs_per_cell = static_cast<std::size_t>(max_pairs_per_cell);
+  if (!cell.is_none()) o.cell = as_vec3(cell, "cell");
   return o;
 }
 
@@ -189,22 +195,27 @@ Normals must be unit length.)doc");
 All pairs i < j of a target's facets with d <= d_max (both free), their features
 (d, phi, beta_ij + beta_ji) and a balanced AABB hierarchy for tolerance-box queries.
 
-PairIndex(points, normals, d_max=0.2, free=None, max_pairs=100_000_000, threads=0)
+PairIndex(points, normals, d_max=0.2, free=None, max_pairs=100_000_000, threads=0,
+          max_pairs_per_cell=0, cell=None)
 
 points, normals: (N, 3) facet centres (m) and unit outward normals; free: optional (N,) mask.
 The pairs are counted before anything is stored: over `max_pairs` raises ValueError
-(BudgetError) naming the facet count that fits. Built without the GIL, on `threads` threads
+(BudgetError) naming the facet count that fits. max_pairs_per_cell > 0 thins the dense cells
+(of size `cell`: d metres, n_i.n_j, beta; None: (h / 2, 0.1, 0.1)) of the feature space to about
+that many pairs each, chosen by a hash of the pair; `weights` tells how many pairs each stored one
+stands for. Built without the GIL, on `threads` threads
 (0: all cores). `pairs` and `features` are read-only views in the tree's order.)doc")
       .def(pyb::init([](const pyb::object& points, const pyb::object& normals, double d_max, const pyb::object& free,
-                        std::size_t max_pairs, int threads) {
+                        std::size_t max_pairs, int threads, long max_pairs_per_cell, const pyb::object& cell) {
              const Points p = as_points(points, "points");
              const Points n = as_points(normals, "normals");
              const Mask mask = as_mask(free, "free", long(p.rows()));
+             const PairIndexOptions o = index_options(d_max, max_pairs, threads, max_pairs_per_cell, cell);
              pyb::gil_scoped_release release;
-             return PairIndex(p, n, mask, index_options(d_max, max_pairs, threads));
+             return PairIndex(p, n, mask, o);
            }),
            "points"_a, "normals"_a, "d_max"_a = 0.2, "free"_a = pyb::none(), "max_pairs"_a = 100'000'000,
-           "threads"_a = 0)
+           "threads"_a = 0, "max_pairs_per_cell"_a = 0, "cell"_a = pyb::none())
       .def_property_readonly("pairs", [](pyb::object self) { return readonly_view(self.cast<const PairIndex&>().pairs(), self); },
                              "(M, 2) int32 facet indices of the stored pairs, i < j.")
       .def_property_readonly("features",
@@ -222,6 +233,23 @@ The pairs are counted before anything is stored: over `max_pairs` raises ValueEr
                              },
                              "(N,) free mask, or None when every facet is free.")
       .def_property_readonly("d_max", &PairIndex::d_max, "Largest stored pair distance, metres.")
+      .def_property_readonly("pairs_found", &PairIndex::pairs_found,
+                             "Pairs with d <= d_max before thinning (len() without thinning): what max_pairs bounds.")
+      .def_property_readonly(
+          "weights",
+          [](const PairIndex& s) {
+            pyb::array_t<std::int64_t> out(static_cast<pyb::ssize_t>(s.size()));
+            std::int64_t* o = out.mutable_data();
+            for (std::size_t k = 0; k < s.size(); ++k) o[k] = s.weight(k);
+            return out;
+          },
+          "(M,) int64: the pairs each stored pair stands for (1 without thinning; see max_pairs_per_cell).")
+      .def_property_readonly("thin_cell", [](const PairIndex& s) -> pyb::object {
+            if (s.max_pairs_per_cell() == 0) return pyb::none();
+            const Eigen::Vector3d c = s.thin_cell();
+            return pyb::make_tuple(c[0], c[1], c[2]);
+          }, "The thinning's feature cell (d metres, n_i.n_j, beta), or None without thinning.")
+      .def_property_readonly("max_pairs_per_cell", &PairIndex::max_pairs_per_cell, "The thinning's cap (0: none).")
       .def_property_readonly("spacing", &PairIndex::spacing,
                              "Median nearest-neighbour distance of the points, metres (about the facet edge).")
       .def_property_readonly("nbytes", &PairIndex::nbytes, "Bytes held by the index (pairs, features, tree, points).")

@@ -5,6 +5,7 @@
 #include "surface_grid.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -18,6 +19,7 @@ namespace pairgrasp {
 namespace {
 
 constexpr int kLeafSize = 16;           // leaves hold kLeafSize .. 2 * kLeafSize pairs
+constexpr std::size_t kHistogramPairs = std::size_t(1) << 21;  // thinning: pairs enough to weigh the cells
 constexpr double kUnitTolerance = 1e-6; // |1 - |n|| allowed for a unit normal
 
 std::string fmt(double v, int precision = 4) {
@@ -161,6 +163,56 @@ double median_nn_spacing(const Points& points, int threads) {
   return m;
 }
 
+/// The thinning's cells over the feature space (d in [0, d_max], n_i.n_j in [-1, 1], beta in
+/// [-2, 2]), indexed from the float32 feature as stored, so that the build and weight() agree.
+struct FeatureCells {
+  Eigen::Vector3d cell = Eigen::Vector3d::Zero(), origin = Eigen::Vector3d(0.0, -1.0, -2.0);
+  Eigen::Vector3d inverse = Eigen::Vector3d::Zero();  // 1 / cell
+  std::array<int, 3> dims{0, 0, 0};
+
+  static constexpr double kMaxCells = double(1 << 24);
+
+  FeatureCells() = default;
+  FeatureCells(Eigen::Vector3d c, double d_max) {
+    const Eigen::Vector3d span(d_max, 2.0, 4.0);
+    // Coarser cells when the table would be larger than kMaxCells (a tiny d cell).
+    const double n = (span.array() / c.array() + 1.0).prod();
+    if (n > kMaxCells) c *= std::cbrt(n / kMaxCells) * 1.01;
+    cell = c;
+    inverse = cell.cwiseInverse();
+    for (int a = 0; a < 3; ++a) dims[a] = int(std::floor(span[a] * inverse[a])) + 1;
+  }
+  std::size_t size() const { return std::size_t(dims[0]) * std::size_t(dims[1]) * std::size_t(dims[2]); }
+  std::size_t index(const float* f) const {
+    std::size_t k = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double x = std::floor((double(f[a]) - origin[a]) * inverse[a]);
+      const int c = x < 0.0 ? 0 : x >= double(dims[a] - 1) ? dims[a] - 1 : int(x);
+      k = k * std::size_t(dims[a]) + std::size_t(c);
+    }
+    return k;
+  }
+};
+
+/// Whether the thinning keeps pair (i, j) of a cell of weight w: a hash of the pair, so that the
+/// choice does not depend on the order or the threads of the build.
+bool thinning_keeps(std::int32_t i, std::int32_t j, std::uint32_t w) {
+  if (w <= 1) return true;
+  std::uint64_t x = (std::uint64_t(std::uint32_t(i)) << 32) | std::uint32_t(j);
+  x += 0x9e3779b97f4a7c15ull;  // splitmix64's finaliser
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+  x ^= x >> 31;
+  return ((x >> 32) * w) >> 32 == 0;  // the high word, uniform in [0, 2^32), scaled to [0, w)
+}
+
+/// The feature of (i, j) as stored (float32).
+void stored_feature(const Points& points, const Points& normals, std::int32_t i, std::int32_t j, float* out) {
+  double f[3];
+  detail::pair_feature_raw(points.row(i).data(), normals.row(i).data(), points.row(j).data(), normals.row(j).data(), f);
+  out[0] = float(f[0]), out[1] = float(f[1]), out[2] = float(f[2]);
+}
+
 struct Record {
   float f[3];
   std::int32_t i, j;
@@ -276,6 +328,10 @@ struct PairIndex::Impl {
   Mask free;
   double d_max = 0.0;
   double spacing = 0.0;
+  std::size_t found = 0;              // pairs before thinning
+  std::size_t max_per_cell = 0;       // 0: no thinning
+  FeatureCells cells;                 // the thinning's cells (when max_per_cell > 0)
+  std::vector<std::uint16_t> weights; // per cell (when max_per_cell > 0)
   Eigen::Matrix<std::int32_t, Eigen::Dynamic, 2, Eigen::RowMajor> pairs;
   Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> features;
   Eigen::Matrix<std::int16_t, Eigen::Dynamic, 4, Eigen::RowMajor> geometry;
@@ -361,6 +417,10 @@ PairIndex::PairIndex(const Points& points, const Points& normals, const Mask& fr
   check_d_max(options.d_max);
   if (!(options.max_normal_dot >= -1.0 && options.max_normal_dot <= 1.0))
     throw std::invalid_argument("max_normal_dot: expected a number in [-1, 1], got " + fmt(options.max_normal_dot));
+  const Eigen::Vector3d& cell = options.cell;
+  if (!cell.allFinite() || !(cell.isZero() || (cell.array() > 0.0).all()))
+    throw std::invalid_argument("cell: expected three positive finite sizes (d metres, n_i.n_j, beta) or zeros, got (" +
+                                fmt(cell[0]) + ", " + fmt(cell[1]) + ", " + fmt(cell[2]) + ")");
   if (points.rows() > std::numeric_limits<std::int32_t>::max())
     throw std::invalid_argument("points: more than 2^31 - 1 rows");
   check_points("points", points);
@@ -376,10 +436,11 @@ PairIndex::PairIndex(const Points& points, const Points& normals, const Mask& fr
   // Count first: refuse before storing anything.
   const PairGrid g = make_pair_grid(points, free, options.d_max);
   const NormalFilter keep{options.max_normal_dot < 1.0 ? &normals : nullptr, options.max_normal_dot};
+  impl->spacing = median_nn_spacing(points, threads);
   const std::vector<std::size_t> counts = count_per_point(points, g, options.d_max, threads, keep);
-  std::vector<std::size_t> offset(counts.size() + 1, 0);
-  for (std::size_t k = 0; k < counts.size(); ++k) offset[k + 1] = offset[k] + counts[k];
-  const std::size_t m = offset.back();
+  std::size_t m = 0;
+  for (auto c : counts) m += c;
+  impl->found = m;
   const std::size_t limit = pair_limit(options.max_pairs);
   if (m > limit) {
     const double n = double(g.active.size());
@@ -393,23 +454,80 @@ PairIndex::PairIndex(const Points& points, const Points& normals, const Mask& fr
     throw PairBudgetExceeded(msg.str(), g.active.size(), m);
   }
 
-  std::vector<Record> rec(m);
-  detail::parallel_chunks(g.active.size(), threads, [&](std::size_t b, std::size_t e, int) {
-    for (std::size_t k = b; k < e; ++k) {
-      std::size_t at = offset[k];
-      visit_pairs(points, g, options.d_max, k, k + 1, [&](std::int32_t i, std::int32_t j) {
-        if (!keep(i, j)) return;
-        double f[3];
-        detail::pair_feature_raw(points.row(i).data(), normals.row(i).data(), points.row(j).data(),
-                                 normals.row(j).data(), f);
-        Record& r = rec[at++];
-        r.f[0] = float(f[0]), r.f[1] = float(f[1]), r.f[2] = float(f[2]);
-        r.i = i, r.j = j;
-        pair_geometry_raw(points.row(i).data(), normals.row(i).data(), points.row(j).data(),
-                          normals.row(j).data(), r.g);
-      });
+  // Thinning: each feature cell's weight w from its pairs (counted on every `stride`-th point's
+  // pairs when there are many: any w keeps the weighted sum unbiased, since a pair of a cell of
+  // weight w is kept with probability 1 / w), then the pairs kept.
+  const bool thin = options.max_pairs_per_cell > 0 && m > 0;
+  if (thin) {
+    impl->max_per_cell = options.max_pairs_per_cell;
+    const double h = impl->spacing > 0.0 && std::isfinite(impl->spacing) ? impl->spacing : options.d_max / 10;
+    impl->cells = FeatureCells(options.cell.isZero() ? Eigen::Vector3d(0.5 * h, 0.1, 0.1) : options.cell, options.d_max);
+    const std::size_t stride = std::clamp<std::size_t>(m / kHistogramPairs, 1, 64);
+    const int parts = std::max(1, threads);
+    std::vector<std::vector<std::uint32_t>> hist(static_cast<std::size_t>(parts));
+    detail::parallel_chunks(g.active.size(), parts, [&](std::size_t b, std::size_t e, int t) {
+      auto& hc = hist[std::size_t(t)];
+      hc.assign(impl->cells.size(), 0);
+      for (std::size_t k = (b + stride - 1) / stride * stride; k < e; k += stride)
+        visit_pairs(points, g, options.d_max, k, k + 1, [&](std::int32_t i, std::int32_t j) {
+          if (!keep(i, j)) return;
+          float f[3];
+          stored_feature(points, normals, i, j, f);
+          ++hc[impl->cells.index(f)];
+        });
+    });
+    impl->weights.assign(impl->cells.size(), 1);
+    const std::size_t cap = options.max_pairs_per_cell;
+    for (std::size_t c = 0; c < impl->cells.size(); ++c) {
+      std::size_t n = 0;
+      for (const auto& hc : hist)
+        if (!hc.empty()) n += hc[c];
+      n *= stride;
+      if (n > cap) impl->weights[c] = std::uint16_t(std::min<std::size_t>(65535, (n + cap - 1) / cap));
     }
-  });
+  }
+  // The record of pair (i, j) when it is stored.
+  auto make = [&](std::int32_t i, std::int32_t j, Record& r) {
+    if (!keep(i, j)) return false;
+    stored_feature(points, normals, i, j, r.f);
+    if (thin && !thinning_keeps(i, j, impl->weights[impl->cells.index(r.f)])) return false;
+    r.i = i, r.j = j;
+    pair_geometry_raw(points.row(i).data(), normals.row(i).data(), points.row(j).data(), normals.row(j).data(), r.g);
+    return true;
+  };
+
+  std::vector<Record> rec;
+  if (!thin) {  // every pair counted: each point's records go to their place
+    std::vector<std::size_t> offset(counts.size() + 1, 0);
+    for (std::size_t k = 0; k < counts.size(); ++k) offset[k + 1] = offset[k] + counts[k];
+    rec.resize(m);
+    detail::parallel_chunks(g.active.size(), threads, [&](std::size_t b, std::size_t e, int) {
+      for (std::size_t k = b; k < e; ++k) {
+        std::size_t at = offset[k];
+        visit_pairs(points, g, options.d_max, k, k + 1, [&](std::int32_t i, std::int32_t j) {
+          if (make(i, j, rec[at])) ++at;
+        });
+      }
+    });
+  } else {  // the kept pairs per chunk of points, joined in point order
+    const int parts = std::max(1, threads);
+    std::vector<std::vector<Record>> part(static_cast<std::size_t>(parts));
+    detail::parallel_chunks(g.active.size(), parts, [&](std::size_t b, std::size_t e, int t) {
+      auto& out = part[std::size_t(t)];
+      Record r;
+      visit_pairs(points, g, options.d_max, b, e, [&](std::int32_t i, std::int32_t j) {
+        if (make(i, j, r)) out.push_back(r);
+      });
+    });
+    std::size_t n = 0;
+    for (const auto& p : part) n += p.size();
+    rec.reserve(n);
+    for (auto& p : part) {
+      rec.insert(rec.end(), p.begin(), p.end());
+      std::vector<Record>().swap(p);
+    }
+    m = rec.size();
+  }
 
   impl->build_tree(rec, threads);
   impl->pairs.resize(Eigen::Index(m), 2);
@@ -423,11 +541,22 @@ PairIndex::PairIndex(const Points& points, const Points& normals, const Mask& fr
     }
   });
   std::vector<Record>().swap(rec);
-  impl->spacing = median_nn_spacing(points, threads);
   impl_ = std::move(impl);
 }
 
 std::size_t PairIndex::size() const { return std::size_t(impl_->pairs.rows()); }
+std::size_t PairIndex::pairs_found() const { return impl_->found; }
+std::uint32_t PairIndex::weight(std::size_t k) const {
+  const Impl& s = *impl_;
+  if (k >= std::size_t(s.pairs.rows()))
+    throw std::out_of_range("weight: pair " + std::to_string(k) + " of " + std::to_string(s.pairs.rows()));
+  if (s.weights.empty()) return 1;
+  return s.weights[s.cells.index(s.features.data() + 3 * k)];
+}
+Eigen::Vector3d PairIndex::thin_cell() const {
+  return impl_->max_per_cell ? impl_->cells.cell : Eigen::Vector3d::Zero();
+}
+std::size_t PairIndex::max_pairs_per_cell() const { return impl_->max_per_cell; }
 const Eigen::Matrix<std::int32_t, Eigen::Dynamic, 2, Eigen::RowMajor>& PairIndex::pairs() const {
   return impl_->pairs;
 }
@@ -449,7 +578,7 @@ std::size_t PairIndex::nbytes() const {
   const Impl& s = *impl_;
   return sizeof(Impl) + std::size_t(s.pairs.size()) * sizeof(std::int32_t) +
          std::size_t(s.features.size()) * sizeof(float) + std::size_t(s.geometry.size()) * sizeof(std::int16_t) +
-         s.boxes.size() * sizeof(float) +
+         s.boxes.size() * sizeof(float) + s.weights.size() * sizeof(std::uint16_t) +
          std::size_t(s.points.size() + s.normals.size()) * sizeof(double) + std::size_t(s.free.size());
 }
 

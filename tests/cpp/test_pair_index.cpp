@@ -11,6 +11,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <map>
 #include <random>
 #include <regex>
 #include <set>
@@ -492,4 +493,52 @@ TEST(BuildTargetIndex, EstimateCheckRefusesWhatTheBuildRefusesBeforeTessellating
   EXPECT_THROW(check_pair_estimate(m, 0.002, Mask::Constant(3, true), o), std::invalid_argument);
   o.max_pairs = 0;
   EXPECT_THROW(check_pair_estimate(m, 0.002, Mask(), o), std::invalid_argument);
+}
+
+// Thinning on a plane, where every pair has n_i.n_j = 1 and beta = 0: the pairs differ by their
+// distance alone. With cells of 1 mm in d, each cell's count c is known by brute force; a stored
+// pair's weight is ceil(c / cap) (1 when c <= cap), the stored pairs are a subset of all, and the
+// same whatever the threads.
+TEST(PairIndex, ThinningWeighsEachCellByItsBruteForceCount) {
+  const int side = 36;
+  Points p(side * side, 3), n(side * side, 3);
+  for (int i = 0; i < side * side; ++i) {
+    p.row(i) << 0.004 * (i % side), 0.004 * (i / side), 0.0;
+    n.row(i) << 0, 0, 1;
+  }
+  const double d_max = 0.04, cap = 64;
+  PairIndexOptions o;
+  o.d_max = d_max;
+  o.max_pairs_per_cell = 64;
+  o.cell = Eigen::Vector3d(0.001, 0.5, 0.5);
+  o.threads = 1;
+  const PairIndex a(p, n, Mask(), o);
+  o.threads = 2;
+  const PairIndex b(p, n, Mask(), o);
+  EXPECT_EQ(a.pairs(), b.pairs());
+  EXPECT_EQ(a.max_pairs_per_cell(), 64u);
+  EXPECT_TRUE(a.thin_cell().isApprox(o.cell));
+
+  const PairSet all = brute_pairs(p, d_max);
+  std::map<int, std::size_t> count;  // by 1 mm distance cell
+  auto cell_of = [&](int i, int j) { return int(std::floor(double(float((p.row(i) - p.row(j)).norm())) / 0.001)); };
+  for (const auto& [i, j] : all) ++count[cell_of(i, j)];
+  EXPECT_EQ(a.pairs_found(), all.size());
+  EXPECT_LT(a.size(), all.size() / 2);
+  double weighted = 0.0, variance = 0.0;
+  for (Eigen::Index k = 0; k < a.pairs().rows(); ++k) {
+    const int i = a.pairs()(k, 0), j = a.pairs()(k, 1);
+    ASSERT_TRUE(all.count({i, j}));
+    const std::size_t c = count[cell_of(i, j)];
+    const std::uint32_t want = c > cap ? std::uint32_t((c + 63) / 64) : 1u;
+    EXPECT_EQ(a.weight(std::size_t(k)), want) << "pair " << i << ", " << j << " of a cell of " << c;
+    weighted += a.weight(std::size_t(k));
+  }
+  for (const auto& [cell, c] : count) variance += double(c) * (c > cap ? double((c + 63) / 64) - 1.0 : 0.0);
+  EXPECT_LE(std::abs(weighted - double(all.size())), 5.0 * std::sqrt(variance) + 1.0);
+  EXPECT_THROW(a.weight(a.size()), std::out_of_range);
+
+  PairIndexOptions bad = o;
+  bad.cell = Eigen::Vector3d(0.001, 0.0, 0.5);
+  EXPECT_THROW(PairIndex(p, n, Mask(), bad), std::invalid_argument);
 }

@@ -185,6 +185,23 @@ def test_aligner_recovers_moved_patch(target):
         assert [p.quality for p in poses] == sorted((p.quality for p in poses), reverse=True)
 
 
+def test_aligner_recovers_moved_patch_on_a_thinned_index(target):
+    CAP = 64  # keeps 41% of the potato's pairs (at 16, 15%, 25 of 40 patches are still recovered)
+    """With the index thinned (PairIndexOptions::max_pairs_per_cell) to well under half its pairs,
+    random rigid motions of surface patches are still recovered, with the votes of the kept pairs:
+    never more than the whole index gives the same patch."""
+    fp, fn, full = target
+    index = pg.PairIndex(fp, fn, d_max=0.06, max_pairs_per_cell=CAP)
+    assert len(index) < 0.45 * len(full) and index.pairs_found == len(full)
+    thinned, whole = pg.Aligner(index), pg.Aligner(full)
+    rng = np.random.default_rng(12)
+    for _ in range(6):
+        sel, R, t, gp, gn = make_patch(fp, fn, rng.integers(len(fp)), 0.025, 7, rng)
+        best = thinned.align(gp, gn)[0]
+        assert is_truth(best, sel, R, gp, fp)
+        assert best.votes <= whole.align(gp, gn)[0].votes
+
+
 def test_pose_spread_follows_its_definition(target):
     """position_rms (m), angle_rms (rad) and the dimensionless variance as aligner.hpp defines them:
     an exact patch supported by its true votes alone has no spread; gripper points moved by Gaussian noise of sigma per axis leave

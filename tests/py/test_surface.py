@@ -358,3 +358,107 @@ def test_concurrent_builds_agree():
     with concurrent.futures.ThreadPoolExecutor(2) as pool:
         a, b = pool.map(lambda _: pg.PairIndex(P, N, d_max=0.05, threads=1), range(2))
     assert np.array_equal(a.pairs, b.pairs) and np.array_equal(a.features, b.features)
+
+
+# ---------------------------------------------------------------- thinning of dense feature cells
+CELL_ORIGIN = np.array([0.0, -1.0, -2.0])  # (d, n_i.n_j, beta) at the corner of the first cell
+
+
+def cell_keys(features, cell, d_max):
+    """The flat cell number of each feature, by the cell grid PairIndexOptions::cell documents: cells of
+    `cell` from (0, -1, -2) over d in [0, d_max], n_i.n_j in [-1, 1], beta in [-2, 2], clamped at the ends."""
+    inv = 1.0 / np.asarray(cell, float)
+    dims = np.floor(np.array([d_max, 2.0, 4.0]) * inv).astype(np.int64) + 1
+    c = np.floor((np.asarray(features, np.float32).astype(float) - CELL_ORIGIN) * inv).astype(np.int64)
+    c = np.clip(c, 0, dims - 1)
+    return (c[:, 0] * dims[1] + c[:, 1]) * dims[2] + c[:, 2]
+
+
+def plane_grid(n, step):
+    x, y = np.meshgrid(np.arange(n) * step, np.arange(n) * step)
+    P = np.c_[x.ravel(), y.ravel(), np.zeros(n * n)]
+    return P, np.tile([0.0, 0.0, 1.0], (n * n, 1))
+
+
+@pytest.mark.parametrize("cap", [50, 400])
+def test_thinning_keeps_a_share_of_each_dense_cell_and_weighs_it(cap):
+    """On a plane every pair has n_i.n_j = 1 and beta = 0, so the pairs differ by distance alone and
+    a few cells hold them all. Against a NumPy histogram of every pair's cell: each stored pair
+    carries ceil(c / cap) of its cell of c pairs (1 when c <= cap), the pairs kept are a subset of all,
+    each dense cell keeps about c / w of its pairs, and the weights add up to the pairs found."""
+    P, N = plane_grid(40, 0.004)
+    d_max = 0.05
+    full = pg.PairIndex(P, N, d_max=d_max)
+    ref = reference_features(P, N, full.pairs[:, 0], full.pairs[:, 1])
+    assert np.abs(full.features - ref).max() < 1e-6
+    thin = pg.PairIndex(P, N, d_max=d_max, max_pairs_per_cell=cap)
+    assert thin.max_pairs_per_cell == cap and full.max_pairs_per_cell == 0 and full.thin_cell is None
+    h = thin.spacing
+    assert thin.thin_cell == pytest.approx((0.5 * h, 0.1, 0.1))  # the aligner's default tolerance box
+    assert thin.pairs_found == len(full) == pg.count_pairs(P, d_max)
+
+    keys_all = cell_keys(full.features, thin.thin_cell, d_max)
+    cells, counts = np.unique(keys_all, return_counts=True)
+    expected_w = dict(zip(cells.tolist(), np.where(counts > cap, -(-counts // cap), 1).tolist()))
+    assert counts.max() > 4 * cap  # the plane's cells are dense: this case thins
+
+    n = len(P)
+    full_keys = np.asarray(full.pairs).astype(np.int64) @ [n, 1]
+    thin_keys = np.asarray(thin.pairs).astype(np.int64) @ [n, 1]
+    assert np.isin(thin_keys, full_keys).all() and len(np.unique(thin_keys)) == len(thin)
+    tk = cell_keys(thin.features, thin.thin_cell, d_max)
+    w = thin.weights
+    assert w.dtype == np.int64 and len(w) == len(thin)
+    assert np.array_equal(w, [expected_w[k] for k in tk.tolist()])
+    for cell, c in zip(cells, counts):
+        kept = int(np.sum(tk == cell))
+        wc = expected_w[int(cell)]
+        if wc == 1:
+            assert kept == c  # sparse cells are whole
+        else:  # binomial(c, 1 / wc): within five standard deviations of c / wc
+            mean = c / wc
+            assert abs(kept - mean) <= 5 * np.sqrt(mean) + 1
+    assert len(thin) < 0.5 * len(full)
+    # unbiased: each cell's weighted count has mean c and variance c (w - 1); within five deviations
+    wc = np.array([expected_w[int(c)] for c in cells])
+    assert abs(w.sum() - thin.pairs_found) <= 5 * np.sqrt(np.sum(counts * (wc - 1))) + 1
+    # the stored features are still the pairs' own
+    ref = reference_features(P, N, thin.pairs[:, 0], thin.pairs[:, 1])
+    assert np.abs(thin.features - ref).max() < 1e-6
+    assert thin.nbytes < full.nbytes
+    check_queries(thin, np.random.default_rng(cap), count=40)
+
+
+def test_thinning_off_or_above_every_cell_stores_every_pair():
+    P, N = sphere_cloud(800, 12)
+    full = pg.PairIndex(P, N, d_max=0.05)
+    off = pg.PairIndex(P, N, d_max=0.05, max_pairs_per_cell=0)
+    assert np.array_equal(full.pairs, off.pairs) and np.array_equal(full.features, off.features)
+    assert np.all(full.weights == 1) and full.pairs_found == len(full)
+    high = pg.PairIndex(P, N, d_max=0.05, max_pairs_per_cell=len(full))  # no cell holds more
+    assert np.array_equal(pair_keys(high, 800), pair_keys(full, 800)) and np.all(high.weights == 1)
+
+
+def test_thinning_weights_sum_and_determinism_on_a_varied_cloud():
+    """A noisy sphere's pairs spread over many cells: the weighted count stays within a few per cent of
+    the pairs found, and the kept pairs do not depend on the number of threads (a hash of the pair
+    chooses them, not the build's order)."""
+    P, N = sphere_cloud(3000, 13)
+    one = pg.PairIndex(P, N, d_max=0.03, max_pairs_per_cell=20, cell=(0.004, 0.2, 0.2), threads=1)
+    two = pg.PairIndex(P, N, d_max=0.03, max_pairs_per_cell=20, cell=(0.004, 0.2, 0.2), threads=2)
+    assert one.thin_cell == pytest.approx((0.004, 0.2, 0.2))
+    assert np.array_equal(one.pairs, two.pairs) and np.array_equal(one.weights, two.weights)
+    assert one.pairs_found == pg.count_pairs(P, 0.03)
+    assert len(one) < 0.7 * one.pairs_found
+    assert abs(one.weights.sum() - one.pairs_found) < 0.03 * one.pairs_found
+
+
+def test_thinning_bad_input():
+    P, N = sphere_cloud(50, 14)
+    with pytest.raises(ValueError, match="max_pairs_per_cell"):
+        pg.PairIndex(P, N, max_pairs_per_cell=-1)
+    for cell in ((0.0, 0.1, 0.1), (0.001, -0.1, 0.1), (np.nan, 0.1, 0.1), (np.inf, 0.1, 0.1)):
+        with pytest.raises(ValueError, match="cell"):
+            pg.PairIndex(P, N, max_pairs_per_cell=10, cell=cell)
+    with pytest.raises(ValueError, match="cell"):
+        pg.PairIndex(P, N, max_pairs_per_cell=10, cell=(0.1, 0.1))

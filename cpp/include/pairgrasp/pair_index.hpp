@@ -22,6 +22,16 @@ struct PairIndexOptions {
   /// A parallel jaw's antipodal alignment needs only opposed pairs (-cos(2 cone)): a few per cent
   /// of them. The budget counts the pairs stored.
   double max_normal_dot = 1.0;
+  /// Thinning of dense feature cells (0: every pair is stored). The pairs are binned by feature in
+  /// cells of `cell`; a cell holding c > max_pairs_per_cell pairs keeps about c / w of them,
+  /// w = ceil(c / max_pairs_per_cell), chosen by a hash of (i, j) (so the same pairs whatever the
+  /// threads), and each kept pair stands for w (PairIndex::weight()). On a flat face, a sphere or two
+  /// parallel faces every pair at one distance has the same feature: such cells hold thousands of
+  /// pairs that place the gripper at equivalent poses, and a gripper pair's query returns them all.
+  std::size_t max_pairs_per_cell = 0;
+  /// The thinning's cell (d metres, n_i.n_j, beta_ij + beta_ji). Zero: (0.5 h, 0.1, 0.1), the
+  /// Aligner's default tolerance box, with h the points' spacing().
+  Eigen::Vector3d cell = Eigen::Vector3d::Zero();
 };
 
 /// The target's pair features in a flat, balanced AABB hierarchy.
@@ -33,7 +43,9 @@ struct PairIndexOptions {
 /// 28 bytes. The hierarchy is a complete binary tree in heap order (children of node k
 /// are 2k+1 and 2k+2) whose every level splits its range of pairs at the median along the axis
 /// of largest extent (extents measured relative to the root box, so metres and cosines weigh
-/// alike); leaves hold 16 to 32 pairs (fewer only when there are fewer); a node is one float32 box (24 bytes). pairs() and
+/// alike); leaves hold 16 to 32 pairs (fewer only when there are fewer); a node is one float32 box
+/// (24 bytes). With PairIndexOptions::max_pairs_per_cell, dense feature cells are thinned, and
+/// weight() tells how many pairs each stored one stands for. pairs() and
 /// features() are stored in the tree's leaf order, so a subtree is a contiguous range.
 class PairIndex {
  public:
@@ -44,6 +56,16 @@ class PairIndex {
             const PairIndexOptions& options = {});
 
   std::size_t size() const;                 ///< stored pairs
+  /// Pairs with d <= d_max (and within max_normal_dot) before thinning: the count the budget
+  /// checks, equal to size() without thinning.
+  std::size_t pairs_found() const;
+  /// The number of pairs stored pair k stands for: 1, or the thinning weight of its feature cell
+  /// (see PairIndexOptions::max_pairs_per_cell). The weights of the stored pairs sum to about
+  /// pairs_found(). k < size().
+  std::uint32_t weight(std::size_t k) const;
+  /// The thinning's cell (zero without thinning) and cap.
+  Eigen::Vector3d thin_cell() const;
+  std::size_t max_pairs_per_cell() const;
   /// (M,2) facet indices of stored pairs, i < j.
   const Eigen::Matrix<std::int32_t, Eigen::Dynamic, 2, Eigen::RowMajor>& pairs() const;
   /// (M,3) features (d, phi, beta_ij + beta_ji) of stored pairs.
@@ -70,7 +92,7 @@ class PairIndex {
   /// The number of stored pairs query() would return, without listing them (a subtree wholly
   /// inside the box counts in O(1)). Same errors as query().
   std::size_t count(const Eigen::Vector3d& center, const Eigen::Vector3d& tolerance) const;
-  /// Bytes held by the index (pairs, features, tree).
+  /// Bytes held by the index (pairs, features, tree, thinning weights per cell).
   std::size_t nbytes() const;
 
   const Points& points() const;
