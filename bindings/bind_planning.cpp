@@ -139,6 +139,11 @@ PlannerOptions planner_options(const pyb::kwargs& kw) {
     if (k == "edge") o.edge = length(v, k);
     else if (k == "d_max") o.d_max = length(v, k);
     else if (k == "max_pairs") o.max_pairs = static_cast<std::size_t>(std::max(0, integer(v, k)));
+    else if (k == "max_pairs_per_cell") {
+      const int n = integer(v, k);
+      if (n < 0) throw std::invalid_argument("max_pairs_per_cell: expected an integer >= 0 (0: every pair), got " + std::to_string(n));
+      o.max_pairs_per_cell = static_cast<std::size_t>(n);
+    }
     else if (k == "constellation") o.constellation = choice_from(pyb::str(v));
     else if (k == "spacing") o.spacing = length(v, k);
     else if (k == "max_area_samples") o.max_area_samples = integer(v, k);
@@ -167,7 +172,7 @@ const char* mode_name(const PlannerSetup& s) {
 
 const char* const kPlannerOptionsDoc =
     "Options (keywords, as C++ PlannerOptions; None: derived): edge (m), d_max (m; None: the hand's span + edge), "
-    "max_pairs, constellation ('auto', 'per_link', 'area', 'antipodal'), spacing (m), max_area_samples, depth_tolerance (m; None: "
+    "max_pairs, max_pairs_per_cell (about this many pairs kept per cell of the feature space; 0: all), constellation ('auto', 'per_link', 'area', 'antipodal'), spacing (m), max_area_samples, depth_tolerance (m; None: "
     "edge / 4), gap (m), field_cell (m; None: max(edge / 5, 1 mm)), max_field_bytes (2 GiB), backoff (m; None: half the "
     "hand's reach; a GraspSearch may use another), mu (0.5: the friction of the searches it serves; free faces that "
     "cannot hold a force-closure grasp at it within the hand's contact span are not indexed, see graspable_faces), "

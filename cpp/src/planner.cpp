@@ -358,6 +358,7 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& sce
   PairIndexOptions io;
   io.d_max = setup.d_max;
   io.max_pairs = options.max_pairs;
+  io.max_pairs_per_cell = options.max_pairs_per_cell;
   io.threads = options.threads;
   // A jaw's antipodal alignment reads only pairs whose normals are opposed within twice its cone
   // (both within the cone of their line): the others are not stored.

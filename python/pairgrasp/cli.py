@@ -19,6 +19,7 @@ import warnings
 import numpy as np
 
 from . import _core
+from .params import PlanParams
 from .workflow import finish_outdir, planner_from_files, write_plan
 
 
@@ -66,8 +67,8 @@ def _cmd_info(args) -> int:
 
 
 # The PlanParams fields the target options (_add_target_options) set, when given.
-_PLAN_PARAMS = ("schedule", "step", "top", "seed", "time_limit", "edge", "field_cell", "max_field_memory", "threads",
-                "rank", "mu")
+_PLAN_PARAMS = ("schedule", "step", "top", "seed", "time_limit", "edge", "max_pairs_per_cell", "field_cell",
+                "max_field_memory", "threads", "rank", "mu")
 
 
 def _plan_params(args) -> dict:
@@ -393,6 +394,9 @@ def _add_target_options(p, threads_help="worker threads (default 0: every core)"
     p.add_argument("--schedule", choices=("grid", "fast"), default="fast", help="DOF schedule (default fast)")
     p.add_argument("--step", type=_positive_float, help="DOF sampling step (rad; default the hand's)")
     p.add_argument("--edge", type=_positive_float, help="unit-facet edge h (m; default automatic)")
+    p.add_argument("--max-pairs-per-cell", type=_count(0), metavar="N",
+                   help="about N target pairs kept per cell of the feature space, the rest of a dense cell (a flat "
+                   f"face's, a sphere's) dropped (default {PlanParams.max_pairs_per_cell}; 0: every pair)")
     p.add_argument("--field-cell", type=_positive_float, metavar="M",
                    help="cell of the collision checker's distance fields (m; default h/5 but at least 1 mm)")
     p.add_argument("--max-field-memory", type=_positive_float, metavar="GB",

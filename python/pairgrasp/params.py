@@ -26,6 +26,9 @@ class PlanParams:
         d_max: largest stored pair distance (m); None: the largest distance between two samples
             of the hand's constellations over its DOF range, plus h.
         max_pairs: pair budget of the index.
+        max_pairs_per_cell: pairs kept per cell of the feature space (0: every pair). The pairs of a
+            flat face, a sphere or two parallel faces share a few feature cells; only about this many
+            of each are stored and matched, and a pose's votes count the kept pairs (docs/planner.md).
         max_faces: a target with more faces is simplified to about this many before it is
             tessellated (quadric edge collapse, :func:`pairgrasp.simplify.simplify_mesh`), within a
             measured error bound of h / 4, the default penetration tolerance (recorded in the result's ``inputs.target_simplified``);
@@ -107,6 +110,7 @@ class PlanParams:
     edge: Optional[float] = None
     d_max: Optional[float] = None
     max_pairs: int = 20_000_000
+    max_pairs_per_cell: int = 512
     max_faces: Optional[int] = 100_000
     constellation: str = "auto"
     spacing: Optional[float] = None
@@ -153,7 +157,7 @@ class PlanParams:
         _positive("max_field_memory", self.max_field_memory)
         if self.poses_per_sample is not None:
             _integer("poses_per_sample", self.poses_per_sample, 1)
-        for name, low in (("coarse_factor", 1), ("refine", 0), ("refine_rounds", 0)):
+        for name, low in (("coarse_factor", 1), ("refine", 0), ("refine_rounds", 0), ("max_pairs_per_cell", 0)):
             _integer(name, getattr(self, name), low)
         if self.max_faces is not None:
             _integer("max_faces", self.max_faces, 4)
@@ -165,7 +169,8 @@ class PlanParams:
     def planner_options(self) -> dict:
         """The fields fixed when a planner is built, as :class:`pairgrasp.GraspPlanner` keywords (C++
         PlannerOptions)."""
-        return dict(edge=self.edge, d_max=self.d_max, max_pairs=self.max_pairs, constellation=self.constellation,
+        return dict(edge=self.edge, d_max=self.d_max, max_pairs=self.max_pairs,
+                    max_pairs_per_cell=self.max_pairs_per_cell, constellation=self.constellation,
                     spacing=self.spacing, max_area_samples=self.max_area_samples,
                     depth_tolerance=self.depth_tolerance, gap=self.gap, backoff=self.backoff,
                     field_cell=self.field_cell, max_field_bytes=self.max_field_memory * 1e9, mu=self.mu,

@@ -94,7 +94,7 @@ from .simplify import simplify_mesh
 __all__ = ["PlanParams", "Grasp", "Candidate", "PlanResult", "Planner", "dof_axes", "dof_grid"]
 
 # The fields the constructor uses to build the index and the checker; plan() cannot change them.
-_BUILD_FIELDS = frozenset({"edge", "d_max", "max_pairs", "max_faces", "constellation", "spacing", "depth_tolerance",
+_BUILD_FIELDS = frozenset({"edge", "d_max", "max_pairs", "max_pairs_per_cell", "max_faces", "constellation", "spacing", "depth_tolerance",
                            "gap", "field_cell", "max_field_memory", "max_area_samples", "threads"})
 
 

@@ -198,6 +198,7 @@ def test_plan_writes_grasps_and_pictures(tmp_path):
     (["--schedule", "slow"], "--schedule"),
     (["--paint", "models/targets/mug.paint.json"], "paint"),
     (["--viewpoint", "1", "2"], "--viewpoint"),
+    (["--max-pairs-per-cell", "-1"], "--max-pairs-per-cell"),
 ])
 def test_plan_errors_write_nothing(tmp_path, args, needle):
     out = tmp_path / "out"

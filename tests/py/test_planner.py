@@ -57,19 +57,26 @@ def jaw_result(jaw_planner):
 
 
 def test_jaw_box_antipodal_force_closure(jaw_planner, jaw_result):
-    """A parallel jaw on a box: the best grasp is force-closure, its contacts lie on two opposite
-    faces of the box (|coordinate| = half extent along one axis within the contact gap of 1 mm,
-    normals antiparallel)."""
+    """A parallel jaw on a box: the best grasp is force-closure, every contact lies on a face of the
+    box (its normal that face's, its point on the face's plane within the contact gap of 1 mm), and
+    the two fingers press two opposite faces, one each."""
     g = jaw_result.grasps[0]
     assert g.force_closure and g.epsilon > 0
     lo, hi = np.asarray(jaw_planner.target.bounds)
     half = (hi - lo) / 2
     centre = (hi + lo) / 2
-    n = g.contact_normals
-    axis = int(np.argmax(np.abs(n).sum(axis=0)))
-    assert np.all(np.abs(np.abs(n[:, axis]) - 1.0) < 1e-6), "contact normals are not a box face's"
-    assert (n[:, axis] > 0).any() and (n[:, axis] < 0).any(), "contacts on one face only"
-    np.testing.assert_allclose(np.abs(g.contact_points[:, axis] - centre[axis]), half[axis], atol=1e-3 + 1e-6)
+    n = np.asarray(g.contact_normals)
+    axes = np.argmax(np.abs(n), axis=1)
+    rows = np.arange(len(n))
+    assert np.all(np.abs(np.abs(n[rows, axes]) - 1.0) < 1e-6), "contact normals are not a box face's"
+    np.testing.assert_allclose(np.abs(g.contact_points[rows, axes] - centre[axes]), half[axes], atol=1e-3 + 1e-6)
+    links = np.asarray(g.contact_links)
+    opposed = False
+    for a in range(3):
+        plus = set(links[(axes == a) & (n[rows, axes] > 0)])
+        minus = set(links[(axes == a) & (n[rows, axes] < 0)])
+        opposed |= any(len({l, m}) == 2 for l in plus for m in minus)
+    assert opposed, "no two opposite faces pressed by the two fingers"
     assert set(g.contact_links) == {"pj_left_finger", "pj_right_finger"}
 
 

@@ -47,6 +47,10 @@ struct PlannerOptions {
   /// samples over the hand's DOF range (corners and middles of every DOF), plus h.
   std::optional<double> d_max;
   std::size_t max_pairs = 20'000'000;  ///< pair budget of the index
+  /// Pairs kept per cell of the feature space (PairIndexOptions::max_pairs_per_cell; 0: all): the
+  /// pairs of a flat face, a sphere or two parallel faces share a few cells, and only about this many
+  /// of each cell are stored and matched; a pose's votes count the kept pairs (docs/planner.md).
+  std::size_t max_pairs_per_cell = 512;
   ConstellationChoice constellation = ConstellationChoice::Auto;
   /// Area-sample spacing (m); unset: the smallest of h·1.25^k giving at most max_area_samples at mid-range.
   std::optional<double> spacing;
