@@ -43,6 +43,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shlex
 import statistics
 import subprocess
 import sys
@@ -184,13 +185,16 @@ def blank_record(obj, hand, mode, height, repeat):
             "sim_outcome": None, "sim_wall": None, "sim_error": None, "error": None, "reason": None}
 
 
+PLAN_ARGS = []  # more `pairgrasp plan` options for every plan (--plan-args)
+
+
 def plan_command(obj, files, hand, mode, out, threads, top):
     """(the run's folder, created; the `pairgrasp plan` command line of that object, hand and mode)."""
     run_dir = os.path.join(out, "runs", hand, mode, obj.name)
     os.makedirs(run_dir, exist_ok=True)
     target = files["free"] if mode == "free" else files["rest"]
     cmd = pairgrasp_cmd("plan", "--hand", HANDS[hand], "--target", target, "--top", top, "--seed", SEED,
-                        "--pictures", 0, "--quiet", "--threads", threads, "-o", run_dir)
+                        "--pictures", 0, "--quiet", "--threads", threads, "-o", run_dir, *PLAN_ARGS)
     if mode == "support":
         cmd.append("--support")
     elif mode == "mesh":
@@ -444,7 +448,10 @@ def main(argv=None):
     ap.add_argument("--markdown", default=None, help="write the summary and the per-run table here")
     ap.add_argument("--stages", action="store_true",
                     help="also print one row per plan with its stages' seconds, pairs and peak memory")
+    ap.add_argument("--plan-args", default="", metavar="ARGS",
+                    help="more `pairgrasp plan` options for every plan, e.g. \"--max-pairs-per-cell 0\" for a baseline")
     args = ap.parse_args(argv)
+    PLAN_ARGS[:] = shlex.split(args.plan_args)
 
     hands, modes = hands_and_modes(ap, args.hands, args.modes, MODES)
     threads = args.threads or max(1, (os.cpu_count() or 1) // max(1, args.jobs))
