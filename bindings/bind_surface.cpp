@@ -69,17 +69,11 @@ Mask as_mask(const pyb::handle& obj, const std::string& name, long n) {
   return m;
 }
 
-PairIndexOptions index_options(double d_max, std::size_t max_pairs, int threads, long max_pairs_per_cell = 0,
-                               const pyb::object& cell = pyb::none()) {
+PairIndexOptions index_options(double d_max, std::size_t max_pairs, int threads) {
   PairIndexOptions o;
   o.d_max = d_max;
   o.max_pairs = max_pairs;
   o.threads = threads;
-  if (max_pairs_per_cell < 0)
-    throw std::invalid_argument("max_pairs_per_cell: expected an integer >= 0 (0: every pair), got " +
-                                std::to_string(max_pairs_per_cell));
-  o.max_pairs_per_cell = static_cast<std::size_t>(max_pairs_per_cell);
-  if (!cell.is_none()) o.cell = as_vec3(cell, "cell");
   return o;
 }
 
@@ -210,7 +204,12 @@ stands for. Built without the GIL, on `threads` threads
              const Points p = as_points(points, "points");
              const Points n = as_points(normals, "normals");
              const Mask mask = as_mask(free, "free", long(p.rows()));
-             const PairIndexOptions o = index_options(d_max, max_pairs, threads, max_pairs_per_cell, cell);
+             PairIndexOptions o = index_options(d_max, max_pairs, threads);
+             if (max_pairs_per_cell < 0)
+               throw std::invalid_argument("max_pairs_per_cell: expected an integer >= 0 (0: every pair), got " +
+                                           std::to_string(max_pairs_per_cell));
+             o.max_pairs_per_cell = static_cast<std::size_t>(max_pairs_per_cell);
+             if (!cell.is_none()) o.cell = as_vec3(cell, "cell");
              pyb::gil_scoped_release release;
              return PairIndex(p, n, mask, o);
            }),
