@@ -13,6 +13,9 @@ LAUNCHER    = $(if $(CCACHE),-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 WHEEL_CXX   = $(shell grep -s '^CMAKE_CXX_COMPILER:' $(BUILD)/CMakeCache.txt | cut -d= -f2)
 WHEEL_CACHE = $(if $(CCACHE),--config-settings=cmake.define.CMAKE_CXX_COMPILER_LAUNCHER=ccache \
               $(if $(WHEEL_CXX),--config-settings=cmake.define.CMAKE_CXX_COMPILER=$(WHEEL_CXX)))
+# pytest spreads the tests over this many processes (pytest-xdist); 0 runs them in one.
+PYTEST_JOBS ?= $(JOBS)
+PYTEST    = $(PYTHON) -m pytest -n $(PYTEST_JOBS)
 OUT       ?= out/demo
 # Sanitizer and fuzzing builds, each in its own folder (see docs/reliability.md).
 ASAN_BUILD ?= build/asan
@@ -55,11 +58,11 @@ install: deps
 	$(PYTHON) -m pip install -q --disable-pip-version-check $(WHEEL_CACHE) .
 
 pytest: build
-	PYTHONPATH=$(BUILD)/python $(PYTHON) -m pytest tests/py -q -m "not slow"
+	PYTHONPATH=$(BUILD)/python $(PYTEST) tests/py -q -m "not slow"
 
 # The tests marked slow (the longer end-to-end plans and CLI runs), against the pip-installed package.
 pytest-slow: install
-	$(PYTHON) -m pytest tests/py -q -m slow -p no:cacheprovider
+	$(PYTEST) tests/py -q -m slow -p no:cacheprovider
 
 # The README's test command, in minutes: C++ (ctest, including the find_package consumer) and the
 # Python tests but the slow ones.
@@ -72,7 +75,7 @@ check: test pytest-slow asan fuzz tsan
 
 # ASan + UBSan: the library, its C++ tests and the Python extension in $(ASAN_BUILD).
 $(ASAN_BUILD)/CMakeCache.txt:
-	cmake -S . -B $(ASAN_BUILD) -G "$(GENERATOR)" $(SAN_CONFIG) -DCMAKE_CXX_COMPILER=$(ASAN_CXX) -DPAIRGRASP_SANITIZE=ON \
+	cmake -S . -B $(ASAN_BUILD) -G "$(GENERATOR)" $(SAN_CONFIG) $(LAUNCHER) -DCMAKE_CXX_COMPILER=$(ASAN_CXX) -DPAIRGRASP_SANITIZE=ON \
 	  -DPAIRGRASP_BUILD_TESTS=ON -DPAIRGRASP_BUILD_PYTHON=ON -DPython_EXECUTABLE=$$(command -v $(PYTHON)) \
 	  -Dpybind11_DIR=$(PYBIND11_DIR)
 
@@ -87,13 +90,13 @@ asan-ctest: asan-build
 # and the shorter tests already run here, and ASan makes them about nine times slower; with them
 # this step alone took up to 45 minutes of CI's 90 on a loaded day (docs/reliability.md).
 asan-pytest: asan-build install
-	$(ASAN_PY_ENV) $(PYTHON) -m pytest tests/py -q -m "not slow and not long" -p no:cacheprovider --durations=10
+	$(ASAN_PY_ENV) $(PYTEST) tests/py -q -m "not slow and not long" -p no:cacheprovider --durations=10
 
 asan: asan-ctest asan-pytest
 
 # libFuzzer harnesses (clang, ASan + UBSan) and the atheris one, FUZZ_TIME seconds each.
 $(FUZZ_BUILD)/CMakeCache.txt:
-	cmake -S . -B $(FUZZ_BUILD) -G "$(GENERATOR)" $(SAN_CONFIG) -DCMAKE_CXX_COMPILER=clang++ \
+	cmake -S . -B $(FUZZ_BUILD) -G "$(GENERATOR)" $(SAN_CONFIG) $(LAUNCHER) -DCMAKE_CXX_COMPILER=clang++ \
 	  -DPAIRGRASP_BUILD_FUZZ=ON -DPAIRGRASP_BUILD_TESTS=OFF
 
 fuzz: deps install $(FUZZ_BUILD)/CMakeCache.txt
@@ -103,7 +106,7 @@ fuzz: deps install $(FUZZ_BUILD)/CMakeCache.txt
 # ThreadSanitizer (part of `check`, not of `test`): the concurrency tests, whose shared-planner search
 # runs the whole pipeline (align, settle, evaluate, fine-tune, robust scoring) from several threads.
 $(TSAN_BUILD)/CMakeCache.txt:
-	cmake -S . -B $(TSAN_BUILD) -G "$(GENERATOR)" $(SAN_CONFIG) -DPAIRGRASP_TSAN=ON -DPAIRGRASP_BUILD_TESTS=ON
+	cmake -S . -B $(TSAN_BUILD) -G "$(GENERATOR)" $(SAN_CONFIG) $(LAUNCHER) -DPAIRGRASP_TSAN=ON -DPAIRGRASP_BUILD_TESTS=ON
 
 tsan: deps $(TSAN_BUILD)/CMakeCache.txt
 	cmake --build $(TSAN_BUILD) -j $(JOBS) --target test_concurrency

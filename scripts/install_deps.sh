@@ -35,7 +35,7 @@ fi
 
 PYTHON="${PYTHON:-python3}"
 "$PYTHON" -m pip install -q --disable-pip-version-check \
-  "scikit-build-core>=0.10" "pybind11>=2.12" "numpy>=1.24" "scipy>=1.10" "matplotlib>=3.6" "fast-simplification>=0.1.7" "pytest>=7" "trimesh>=4" "rtree>=1.0" "libigl>=2.5" "pybullet>=3.2" \
+  "scikit-build-core>=0.10" "pybind11>=2.12" "numpy>=1.24" "scipy>=1.10" "matplotlib>=3.6" "fast-simplification>=0.1.7" "pytest>=7" "pytest-xdist>=3" "trimesh>=4" "rtree>=1.0" "libigl>=2.5" "pybullet>=3.2" \
   "mujoco>=4.0" "coacd>=1.0.14" \
   "atheris>=2.3" "viser>=1.0" "ray>=2.9"
 # The Shadow hand's MJCF and meshes for the hand-import tests and benchmarks: the package's data
