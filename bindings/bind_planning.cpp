@@ -139,11 +139,8 @@ PlannerOptions planner_options(const pyb::kwargs& kw) {
     if (k == "edge") o.edge = length(v, k);
     else if (k == "d_max") o.d_max = length(v, k);
     else if (k == "max_pairs") o.max_pairs = static_cast<std::size_t>(std::max(0, integer(v, k)));
-    else if (k == "max_pairs_per_cell") {
-      const int n = integer(v, k);
-      if (n < 0) throw std::invalid_argument("max_pairs_per_cell: expected an integer >= 0 (0: every pair), got " + std::to_string(n));
-      o.max_pairs_per_cell = static_cast<std::size_t>(n);
-    }
+    else if (k == "max_pairs_per_cell")
+      o.max_pairs_per_cell = static_cast<std::size_t>(count_arg(pyb::reinterpret_borrow<pyb::object>(v), k.c_str(), 0));
     else if (k == "constellation") o.constellation = choice_from(pyb::str(v));
     else if (k == "spacing") o.spacing = length(v, k);
     else if (k == "max_area_samples") o.max_area_samples = integer(v, k);

@@ -157,7 +157,7 @@ class PlanParams:
         _positive("max_field_memory", self.max_field_memory)
         if self.poses_per_sample is not None:
             _integer("poses_per_sample", self.poses_per_sample, 1)
-        for name, low in (("coarse_factor", 1), ("refine", 0), ("refine_rounds", 0), ("max_pairs_per_cell", 0)):
+        for name, low in (("coarse_factor", 1), ("refine", 0), ("refine_rounds", 0)):
             _integer(name, getattr(self, name), low)
         if self.max_faces is not None:
             _integer("max_faces", self.max_faces, 4)

@@ -390,6 +390,7 @@ def test_match_fraction_equals_brute_force(jaw_planner):
     ("min_force_closure_rate", -0.1), ("min_force_closure_rate", True), ("max_poses_per_sample", 0),
     ("rank", "best"), ("field_cell", -0.001), ("max_field_memory", 0.0), ("max_pairs", 0), ("seed", -1),
     ("threads", -2), ("reject", "yes"), ("max_faces", 3), ("mu", float("nan")), ("depth_tolerance", -0.001),
+    ("max_pairs_per_cell", -1), ("max_pairs_per_cell", 1.5),
 ])
 def test_bad_parameters_name_the_field(field, value):
     p = dataclasses.replace(pg.PlanParams(), **{field: value})
