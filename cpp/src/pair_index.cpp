@@ -463,9 +463,8 @@ PairIndex::PairIndex(const Points& points, const Points& normals, const Mask& fr
     const double h = impl->spacing > 0.0 && std::isfinite(impl->spacing) ? impl->spacing : options.d_max / 10;
     impl->cells = FeatureCells(options.cell.isZero() ? Eigen::Vector3d(0.5 * h, 0.1, 0.1) : options.cell, options.d_max);
     const std::size_t stride = std::clamp<std::size_t>(m / kHistogramPairs, 1, 64);
-    const int parts = std::max(1, threads);
-    std::vector<std::vector<std::uint32_t>> hist(static_cast<std::size_t>(parts));
-    detail::parallel_chunks(g.active.size(), parts, [&](std::size_t b, std::size_t e, int t) {
+    std::vector<std::vector<std::uint32_t>> hist(static_cast<std::size_t>(threads));
+    detail::parallel_chunks(g.active.size(), threads, [&](std::size_t b, std::size_t e, int t) {
       auto& hc = hist[std::size_t(t)];
       hc.assign(impl->cells.size(), 0);
       for (std::size_t k = (b + stride - 1) / stride * stride; k < e; k += stride)
@@ -510,9 +509,8 @@ PairIndex::PairIndex(const Points& points, const Points& normals, const Mask& fr
       }
     });
   } else {  // the kept pairs per chunk of points, joined in point order
-    const int parts = std::max(1, threads);
-    std::vector<std::vector<Record>> part(static_cast<std::size_t>(parts));
-    detail::parallel_chunks(g.active.size(), parts, [&](std::size_t b, std::size_t e, int t) {
+    std::vector<std::vector<Record>> part(static_cast<std::size_t>(threads));
+    detail::parallel_chunks(g.active.size(), threads, [&](std::size_t b, std::size_t e, int t) {
       auto& out = part[std::size_t(t)];
       Record r;
       visit_pairs(points, g, options.d_max, b, e, [&](std::int32_t i, std::int32_t j) {
