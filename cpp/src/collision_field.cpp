@@ -517,6 +517,9 @@ bool GraspChecker::Impl::active_within(int l, const Pose& pose, double gap) cons
   return false;
 }
 
+// How tight link_clearance()'s bound is against the smallest distance at a representative point.
+constexpr double kClearanceRatio = 0.75;
+
 double GraspChecker::Impl::link_clearance(int l, const Pose& pose, bool active, double above, bool* exact) const {
   if (exact) *exact = true;
   const vd::LinkModel& L = links[l];
@@ -533,24 +536,45 @@ double GraspChecker::Impl::link_clearance(int l, const Pose& pose, bool active, 
     return link_distance(l, pose, active);
   };
   if (!std::isfinite(above)) return exact_value();
-  // Lower bound of the target's unsigned distance over the link surface: descend only the balls
-  // that may come within `above`.
-  double bound = std::numeric_limits<double>::infinity();
-  std::vector<std::int32_t>& stack = scratch().stack;
-  stack.assign(tree.roots.begin(), tree.roots.end());
-  bool certain = true;
-  while (!stack.empty() && certain) {
-    const vd::SphereTree::Node& n = tree.nodes[stack.back()];
-    stack.pop_back();
+  // Lower bound of the target's unsigned distance over the link surface, best first: the ball
+  // with the smallest bound is split until that bound is beyond `above` and close to the
+  // distance, i.e. within kClearanceRatio of an upper bound of the link's distance (each ball
+  // holds a surface point within its radius of the centre), or the ball is small against its
+  // bound. Every ball left unsplit bounds at least as high; a leaf within `above` needs the
+  // exact value.
+  double bound = std::numeric_limits<double>::infinity(), seen = bound;
+  std::vector<Scratch::Entry>& heap = scratch().heap;
+  heap.clear();
+  const auto later = [](const Scratch::Entry& a, const Scratch::Entry& b) { return a.bound > b.bound; };
+  auto push = [&](std::int32_t index) {
+    const vd::SphereTree::Node& n = tree.nodes[index];
     const FieldSample f = F.sample(pose * n.centre);
-    const double b = std::max({f.lower, -f.upper, 0.0}) - n.radius;
-    // Split balls large against their distance too, for a bound close to the distance.
-    if (b > above && (n.left < 0 || n.radius <= 0.25 * b)) {
-      bound = std::min(bound, b);
+    // The ball holds a piece of the surface: some point of it lies within the radius.
+    seen = std::min(seen, std::max(f.upper, -f.lower) + n.radius);
+    heap.push_back({std::max({f.lower, -f.upper, 0.0}) - n.radius, index, 0, false});
+    std::push_heap(heap.begin(), heap.end(), later);
+  };
+  for (std::int32_t root : tree.roots) push(root);
+  bool certain = true;
+  while (!heap.empty()) {
+    const Scratch::Entry e = heap.front();
+    const vd::SphereTree::Node& n = tree.nodes[e.index];
+    if (e.bound > above && (e.bound >= kClearanceRatio * seen || n.radius <= 0.25 * e.bound)) {
+      bound = std::min(bound, e.bound);
+      break;
+    }
+    std::pop_heap(heap.begin(), heap.end(), later);
+    heap.pop_back();
+    if (n.left < 0 && e.bound <= above) {
+      certain = false;
+      break;
+    }
+    if (n.left < 0) {
+      bound = std::min(bound, e.bound);  // a leaf cannot be split: its bound stands
       continue;
     }
-    if (n.left < 0) certain = false;
-    else stack.push_back(n.left + 1), stack.push_back(n.left);
+    push(n.left);
+    push(n.left + 1);
   }
   if (!certain) return exact_value();
   // The obstacles through FCL, as link_distance() measures them.
