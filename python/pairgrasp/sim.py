@@ -944,6 +944,10 @@ def _simulate_planned(planned, path, top, params, progress, perturbations, seed,
                      target_mass=sim.target_mass, target_mass_source=sim.target_mass_source)
 
 
+#: How far (m) the simulated support extends beyond the target's footprint on every side, and how deep.
+SUPPORT_MARGIN = 0.15
+
+
 def verify_grasps(path, top: int, trials: int = 4, seed: int = 0, progress=None, document=None, hand=None,
                   target=None, **kwargs) -> List[int]:
     """Simulation in the loop: simulates the first ``top`` grasps of a grasps.json file

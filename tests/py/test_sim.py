@@ -326,6 +326,14 @@ def test_obstacle_supports_the_object_while_closing_then_goes_away(tmp_path):
     assert rep.counts["bodies"] == pg.Simulator(JAW, pg.load_mesh(BOX)).counts["bodies"] + 1
     assert rep.counts["pieces"]["obstacle_0"] == 1
     assert json.loads(path.read_text())["grasps"][0]["simulation"]["outcome"] == "dropped"
+    # The same table as a plan's recorded support plane (`plan --support`): a box under the target
+    # while the hand closes, gone for the load.
+    del doc["inputs"]["obstacles"]
+    doc["inputs"]["support"] = {"point": [0.0, 0.0, 0.0], "normal": [0.0, 0.0, 1.0]}
+    path.write_text(json.dumps(doc))
+    rep = pg.simulate_grasps(path, picture=False)
+    assert rep.results[0].closing_translation < 0.001
+    assert (rep.results[0].outcome, rep.results[0].failed_phase) == ("dropped", "lift")
 
 
 def test_simulate_bad_values(jaw_sim):
