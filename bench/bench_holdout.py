@@ -26,6 +26,13 @@ force-closure grasp counts 0):
   interval), and the best grasp of the pool (what a perfect ranking of these grasps would reach).
   Rules are compared on the dev half; the test half only reports.
 
+A peer runs beside the hands: ``--hands parallel_jaw,gpg`` gives GPG (``bench/gpg_peer.py``, GPD's
+antipodal candidate generator, installed by ``sh bench/install_gpg.sh``) the object's surface points and
+the bundled jaw's geometry; its candidates, in its own order, go through the same physics check with
+the same jaw (GPG does not rank them, so its rank 1 is its first candidate clear of the mesh). A peer's
+grasp counts what the simulation says whether or not its contacts are force-closure. The table adds
+the jaw's plan time over GPG's candidate generation time per object.
+
 Every finished run is one JSON line of ``OUT/runs.jsonl`` (per grasp: its measures and every trial's
 outcome); runs already there are skipped, so an interrupted benchmark resumes.
 """
@@ -49,6 +56,8 @@ from bench_scenes import (HANDS, THIRD_PARTY_HANDS, bootstrap_mean, hands_and_mo
                           pairgrasp_cmd, plan_command, prepare, propose_third_party, reason_without_grasp, run_cmd)
 
 MODES = ("free", "support")
+#: Peers: planners that are not pairgrasp's, each with the bundled hand it grasps with.
+PEERS = {"gpg": "parallel_jaw"}
 from bench_scenes import SEED  # noqa: E402  (the plan and the trials use the scene benchmark's seed)
 
 
@@ -139,7 +148,16 @@ def one_run(obj, files, hand_name, mode, out, threads, pool, trials, timeout, pl
     rec = {"object": obj.name, "rel": obj.rel, "split": obj.split, "hand": hand_name, "mode": mode,
            "height": round(files["height"], 6), "plan_time": None, "sim_wall": None, "grasps": [],
            "counts": {}, "error": None, "reason": None}
-    run_dir, cmd = plan_command(obj, files, hand_name, mode, out, threads, pool)
+    jaw = PEERS.get(hand_name)
+    if jaw is None:
+        run_dir, cmd = plan_command(obj, files, hand_name, mode, out, threads, pool)
+    else:
+        run_dir = os.path.join(out, "runs", hand_name, mode, obj.name)
+        os.makedirs(run_dir, exist_ok=True)
+        cmd = [sys.executable, os.path.join(HERE, f"{hand_name}_peer.py"), "--hand", HANDS[jaw], "--target",
+               files["free"] if mode == "free" else files["rest"], "-o", run_dir, "--top", str(pool), "--seed", str(SEED)]
+        if mode == "support":
+            cmd.append("--support")
     gpath = os.path.join(run_dir, "grasps.json")
     if os.path.exists(gpath):
         os.remove(gpath)
@@ -164,8 +182,13 @@ def one_run(obj, files, hand_name, mode, out, threads, pool, trials, timeout, pl
     with open(gpath) as f:
         doc = json.load(f)
     rec["plan_time"] = round(float(doc["timings"]["total"]), 4)
+    if "gpg" in doc["timings"]:
+        rec["generation_time"] = round(float(doc["timings"]["gpg"]), 4)
     rec["counts"] = doc.get("counts", {})
-    if not any(g.get("force_closure") and g.get("epsilon", 0) > 0 for g in doc.get("grasps", [])):
+    if jaw is not None and not doc.get("grasps"):
+        rec["reason"] = "no candidate clear of the mesh"
+        return rec
+    if jaw is None and not any(g.get("force_closure") and g.get("epsilon", 0) > 0 for g in doc.get("grasps", [])):
         rec["reason"] = reason_without_grasp(rec["counts"])
         return rec
     rc, wall, err, _ = run_cmd(pairgrasp_cmd("simulate", gpath, "--top", len(doc["grasps"]), "--trials", trials,
@@ -176,9 +199,10 @@ def one_run(obj, files, hand_name, mode, out, threads, pool, trials, timeout, pl
         return rec
     with open(gpath) as f:
         doc = json.load(f)
-    hand = pg.load_hand(HANDS[hand_name])
+    hand = _hand(hand_name)
     for g in doc["grasps"]:
         m = measures(hand, g)
+        m["ungated"] = jaw is not None
         sim = g.get("simulation", {})
         m["held"] = sim.get("success_rate")
         m["trials"] = [trial_record(t) for t in sim.get("trials", [])]
@@ -198,7 +222,9 @@ def _ci(values):
 
 
 def held_of(g):
-    return float(g["held"]) if g and g.get("held") is not None and g["force_closure"] else 0.0
+    """The grasp's held rate; 0 for a pairgrasp grasp that is not force-closure (the planner would not
+    return it first), a peer's as simulated."""
+    return float(g["held"]) if g and g.get("held") is not None and (g["force_closure"] or g.get("ungated")) else 0.0
 
 
 #: Ways to pick rank 1 among a plan's grasps (each a key: the largest wins among force-closure grasps).
@@ -293,6 +319,19 @@ def tables(runs, hands, modes):
                     row.append(_ci(v) + ("" if rule is None else f"; {dm:+.2f} [{dlo:+.2f}, {dhi:+.2f}]"))
                 best = [max((held_of(g) for g in r["grasps"]), default=0.0) for r in rs]
                 rule_lines.append(f"| {hand} | {mode} | {split} | " + " | ".join(row) + f" | {_ci(best)} |")
+    for peer, jaw in PEERS.items():
+        for mode in modes:
+            for split in ("dev", "test"):
+                gen = {r["object"]: r.get("generation_time") for r in runs
+                       if r["hand"] == peer and r["mode"] == mode and r["split"] == split}
+                plan = {r["object"]: r["plan_time"] for r in runs
+                        if r["hand"] == jaw and r["mode"] == mode and r["split"] == split}
+                ratios = [plan[o] / gen[o] for o in gen if gen[o] and plan.get(o)]
+                if ratios:
+                    lines.append(f"\n{jaw} plan time / {peer} candidate generation time, {mode}, {split} "
+                                 f"({len(ratios)} objects): median {statistics.median(ratios):.1f}x, "
+                                 f"max {max(ratios):.1f}x; {peer} generation median "
+                                 f"{statistics.median([gen[o] for o in gen if gen[o]]):.2f} s")
     head = ["| hand | mode | split | " + " | ".join(RULES) + " | best of the plan |",
             "|---|---|---|" + "---|" * (len(RULES) + 1)]
     return lines, causes_lines, head + rule_lines
@@ -312,6 +351,7 @@ def refresh(rec, out):
     grasps = []
     for g in doc["grasps"]:
         m = measures(hand, g)
+        m["ungated"] = rec["hand"] in PEERS
         sim = g.get("simulation", {})
         m["held"] = sim.get("success_rate")
         m["trials"] = [trial_record(t) for t in sim.get("trials", [])]
@@ -326,7 +366,7 @@ def _hand(name):
     import pairgrasp as pg
 
     if name not in _HANDS:
-        _HANDS[name] = pg.load_hand(HANDS[name])
+        _HANDS[name] = pg.load_hand(HANDS[PEERS.get(name, name)])
     return _HANDS[name]
 
 
@@ -348,7 +388,9 @@ def main(argv=None):
                     help="simulate the plans of an earlier run's folder again instead of planning")
     ap.add_argument("--markdown", default=None)
     args = ap.parse_args(argv)
-    hands, modes = hands_and_modes(ap, args.hands, args.modes, MODES)
+    asked = [h for h in args.hands.split(",") if h]
+    hands, modes = hands_and_modes(ap, ",".join(h for h in asked if h not in PEERS) or "barrett", args.modes, MODES)
+    hands = [h for h in asked if h in PEERS or h in hands]
     os.makedirs(args.out, exist_ok=True)
     for h in hands:
         if h in THIRD_PARTY_HANDS:
