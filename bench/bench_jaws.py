@@ -9,12 +9,18 @@ pairgrasp.propose_spec proposes, unedited) and target (flask, mug, box, no paint
 grasps among the evaluated candidates, best epsilon of the top 5, and the plan's ``timings.total``
 (median of --repeat runs), then the area / antipodal time ratio and the antipodal / area best-epsilon
 ratio.
+
+With GPG installed (``sh bench/install_gpg.sh``), GPG's candidate generation on the same target and
+jaw (``bench/gpg_peer.py``: 3,000 surface points, 500 seeds; median of --repeat runs) and the
+antipodal plan's time over it are printed too: the realtime issue's "within 3x GPG".
 """
 from __future__ import annotations
 
 import argparse
+import atexit
 import json
 import os
+import shutil
 import statistics
 import sys
 import tempfile
@@ -30,13 +36,13 @@ def jaws():
 
     panda = pg.propose_spec(os.path.join(pybullet_data.getDataPath(), "franka_panda", "panda.urdf"), "panda_hand",
                             name="panda")
-    with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
+    folder = tempfile.mkdtemp(prefix="pgjaws-")
+    atexit.register(shutil.rmtree, folder, True)
+    path = os.path.join(folder, "panda.json")
+    with open(path, "w") as f:
         json.dump(panda, f)
-    try:
-        return {"parallel_jaw": pg.load_hand(os.path.join(ROOT, "models", "parallel_jaw", "parallel_jaw.json")),
-                "panda": pg.load_hand(f.name)}
-    finally:
-        os.remove(f.name)
+    jaw = os.path.join(ROOT, "models", "parallel_jaw", "parallel_jaw.json")
+    return {"parallel_jaw": (pg.load_hand(jaw), jaw), "panda": (pg.load_hand(path), path)}
 
 
 def one(hand, target, constellation, repeat):
@@ -53,6 +59,25 @@ def one(hand, target, constellation, repeat):
             "align_s": float(r.timings["align"])}
 
 
+def gpg(hand_path, target, repeat):
+    """GPG's candidates and generation seconds (median of ``repeat``) on the target, or None when
+    GPG is not installed."""
+    try:
+        import grasp_pose_generator  # noqa: F401
+    except ImportError:
+        return None
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import gpg_peer
+
+    times, doc = [], None
+    with tempfile.TemporaryDirectory() as tmp:
+        for _ in range(repeat):
+            doc = gpg_peer.run(hand_path, os.path.join(ROOT, "models", "targets", f"{target}.stl"), tmp, top=10)
+            times.append(doc["timings"]["gpg"])
+    return {"candidates": doc["counts"]["gpg_candidates"], "gpg_s": statistics.median(times),
+            "force_closure_of_first_10": doc["counts"]["force_closure"]}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3)
@@ -60,17 +85,22 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     rows = []
     print("| jaw | target | antipodal: FC / evaluated | best ε | plan (s) | area: FC / evaluated | best ε | plan (s) "
-          "| area / antipodal time | ε antipodal / area |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
-    for name, hand in jaws().items():
+          "| area / antipodal time | ε antipodal / area | GPG: candidates (FC of its first 10) | GPG (s) "
+          "| antipodal plan / GPG |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for name, (hand, path) in jaws().items():
         for t in TARGETS:
             a = one(hand, t, "antipodal", args.repeat)
             b = one(hand, t, "area", args.repeat)
-            rows.append({"jaw": name, "target": t, "antipodal": a, "area": b})
+            g = gpg(path, t, args.repeat)
+            rows.append({"jaw": name, "target": t, "antipodal": a, "area": b, "gpg": g})
             ratio_e = f"{a['best_epsilon'] / b['best_epsilon']:.2f}" if b["best_epsilon"] > 0 else "–"
+            peer = ("not installed | – | –" if g is None else
+                    f"{g['candidates']} ({g['force_closure_of_first_10']}) | {g['gpg_s']:.3f} | "
+                    f"{a['total_s'] / g['gpg_s']:.1f}×")
             print(f"| {name} | {t} | {a['force_closure']} / {a['evaluated']} | {a['best_epsilon']:.4f} | "
                   f"{a['total_s']:.2f} | {b['force_closure']} / {b['evaluated']} | {b['best_epsilon']:.4f} | "
-                  f"{b['total_s']:.2f} | {b['total_s'] / a['total_s']:.1f}× | {ratio_e} |", flush=True)
+                  f"{b['total_s']:.2f} | {b['total_s'] / a['total_s']:.1f}× | {ratio_e} | {peer} |", flush=True)
     if args.json:
         with open(args.json, "w") as f:
             json.dump(rows, f, indent=2)
