@@ -12,7 +12,8 @@ What GPG is given, as its users give it:
 - the object's surface as ``--points`` points sampled uniformly by area (no normals: GPG estimates
   them with PCL and turns them towards its camera, which its Python binding fixes at the origin; the
   cloud is placed so that the camera is 0.5 m from the object's centre, above it and 30 degrees
-  off the vertical, and with ``--support`` the table around the object is sampled too);
+  off the vertical; with ``--support`` the cloud is still the object's alone, the table segmented
+  out as GPG's users do, and the checker below holds the table);
 - the jaw's geometry, measured from the hand's meshes at the open configuration: the opening between
   the fingers' inner faces, the fingers' thickness along the closing axis, their length along the
   approach and half their height across it;
@@ -21,8 +22,8 @@ What GPG is given, as its users give it:
 GPG returns candidates that are collision-free against the cloud, unranked (GPD ranks them with a
 network this package does not include). Each is turned into the jaw's wrist pose (GPG's hand base,
 between the fingers' roots, on the fingers' roots' plane, approach and closing axes matched) with the
-jaw fully open, checked against the whole mesh with pairgrasp's checker (a cloud hides what it does
-not sample), then closed onto contact and scored as the planner scores its candidates. The first
+jaw fully open, checked against the whole mesh (and the table) with pairgrasp's checker (a cloud
+hides what it does not sample), then closed onto contact and scored as the planner scores its candidates. The first
 ``--top`` candidates that pass, **in GPG's order**, are written to DIR/grasps.json in pairgrasp's format,
 so that ``pairgrasp simulate`` runs them as it runs a plan. ``timings.gpg`` is GPG's candidate
 generation alone; ``timings.total`` adds the checks and the closing. GPG draws its seed points with a
@@ -151,21 +152,16 @@ def run(hand_path, target_path, out, support=False, n_points=3000, samples=500, 
     mesh = trimesh.Trimesh(np.asarray(target.vertices), np.asarray(target.faces), process=False)
     rng = np.random.default_rng(seed)
     points, _ = trimesh.sample.sample_surface(mesh, n_points, seed=rng)
+    # On a table the cloud is the object's alone, segmented as GPG's users segment the table out
+    # (its seeds would otherwise land on the table); the table is the checker's support plane.
     plane = support_plane(True, target) if support else None
-    if plane is not None:   # the table around the object, as a camera sees it
-        lo, hi = mesh.bounds
-        pad = 0.1
-        xs = np.arange(lo[0] - pad, hi[0] + pad, 0.005)
-        ys = np.arange(lo[1] - pad, hi[1] + pad, 0.005)
-        gx, gy = np.meshgrid(xs, ys)
-        table = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, float(np.asarray(plane.point)[2]))])
-        points = np.vstack([points, table])
     centre = 0.5 * (mesh.bounds[0] + mesh.bounds[1])
     shift = -(centre + VIEW_DISTANCE * VIEW)     # object frame -> GPG's cloud frame (a translation)
     frames, gpg_seconds, cfg = gpg_candidates(points + shift, geometry, samples)
 
     t0 = time.perf_counter()
-    checker = pg.GraspChecker(hand, target, support=plane)
+    table = [pg.support_box(plane, target, 0.15)] if plane is not None else []
+    checker = pg.GraspChecker(hand, target, obstacles=table, support=plane)
     open_q = np.asarray(hand.dof_upper, float)
     grasps, colliding = [], 0
     for F in frames:
