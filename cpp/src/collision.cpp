@@ -414,7 +414,8 @@ std::vector<Pose> GraspChecker::Impl::target_frame_poses(const Pose& wrist, cons
   return poses;
 }
 
-CheckResult GraspChecker::Impl::check_poses(const std::vector<Pose>& poses, bool exact_depth) const {
+CheckResult GraspChecker::Impl::check_poses(const std::vector<Pose>& poses, bool exact_depth,
+                                            const std::vector<char>* clear) const {
   // Without exact depths, a link is searched only until it is known to prune the pose: beyond the
   // tolerance in the target, or any depth in an obstacle.
   const double inf = std::numeric_limits<double>::infinity();
@@ -424,7 +425,8 @@ CheckResult GraspChecker::Impl::check_poses(const std::vector<Pose>& poses, bool
   for (std::size_t l = 0; l < links.size(); ++l) {
     LinkCheck& lc = r.links[l];
     lc.link = links[l].name;
-    for (std::size_t s = 0; s < scene.size(); ++s) {
+    const bool apart = clear && (*clear)[l];
+    for (std::size_t s = 0; s < scene.size() && !apart; ++s) {
       const double stop = exact_depth ? inf : (scene[s].obstacle ? 0.0 : options.depth_tolerance);
       const vd::PairCheck pc = pair(static_cast<int>(l), poses[l], static_cast<int>(s), stop);
       if (!pc.intersecting && !pc.inside) continue;

@@ -228,7 +228,11 @@ struct GraspChecker::Impl {
   bool penetrating(const Pose& wrist, const std::vector<Pose>& link_poses) const;
   /// Full check at link poses already in the target frame (depths exact unless `exact_depth` is
   /// false: see GraspChecker::check).
-  CheckResult check_poses(const std::vector<Pose>& poses, bool exact_depth = true) const;
+  /// `clear` (optional, one flag per link): links known to be apart from the target and every
+  /// obstacle at their pose (a certain positive clearance), whose collision pairs are not searched;
+  /// their occluded-face test still is.
+  CheckResult check_poses(const std::vector<Pose>& poses, bool exact_depth = true,
+                          const std::vector<char>* clear = nullptr) const;
   /// Link poses in the target frame.
   std::vector<Pose> target_frame_poses(const Pose& wrist, const Eigen::VectorXd& dofs) const;
   /// Smallest FCL distance (m) between link l at `pose` (its active faces only when `active`;

@@ -122,10 +122,14 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
   r.reasons.assign(D, StopReason::Fixed);
   r.clearance = Eigen::VectorXd::Constant(D, std::numeric_limits<double>::infinity());
 
+  // Links whose last closing left them certainly apart from the target and the obstacles (a
+  // positive clearance measured at their final pose): the final check need not search their pairs.
+  std::vector<char> apart(hand.links().size(), 0);
   for (Eigen::Index k = 0; k < D; ++k) {
     const int dir = r.directions[k];
     const std::vector<int>& moving = I.dof_links[k];
     if (dir == 0 || moving.empty()) continue;
+    for (int l : moving) apart[l] = 0;
 
     // The distance of the moving links (each link's in `per_link`). With distance fields, a
     // lower bound of it beyond `above` (a conservative step, and the comparison with `above`
@@ -221,6 +225,9 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
       }
     }
     r.reasons[k] = reason;
+    // d: the moving links' clearance at q, measured there (a certain lower bound, 0 when touching).
+    if (d > 0.0)
+      for (int l : moving) apart[l] = 1;
     if (options.measure && I.options.use_distance_field && d > stop) {  // maybe a lower bound: measure it
       const std::vector<Pose> poses = I.target_frame_poses(wrist, q);
       d = std::numeric_limits<double>::infinity();
@@ -229,7 +236,7 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
     r.clearance[k] = d;
   }
   r.dofs = q;
-  r.check = checker.check(wrist, q);
+  r.check = I.check_poses(I.target_frame_poses(wrist, q), true, &apart);
   return r;
 }
 
