@@ -310,6 +310,8 @@ def tables(runs, hands, modes):
                             counts[c] = counts.get(c, 0) + 1
                 causes_lines.append(f"**{hand}, {mode}, {split}** ({len(rs)} objects, {n_trials} rank-1 trials): "
                                     + "; ".join(f"{k}: {v}" for k, v in sorted(counts.items(), key=lambda kv: -kv[1])))
+                if hand in PEERS:   # the rules order pairgrasp's plans; a peer keeps its own order
+                    continue
                 row = []
                 planned = np.array([held_of(pick(r["grasps"], None)) if r["grasps"] else 0.0 for r in rs])
                 for name, rule in RULES.items():
