@@ -31,7 +31,10 @@ antipodal candidate generator, installed by ``sh bench/install_gpg.sh``) the obj
 the bundled jaw's geometry; its candidates, in its own order, go through the same physics check with
 the same jaw (GPG does not rank them, so its rank 1 is its first candidate clear of the mesh). A peer's
 grasp counts what the simulation says whether or not its contacts are force-closure. The table adds
-the jaw's plan time over GPG's candidate generation time per object.
+the jaw's plan time over GPG's candidate generation time per object. ``approach_ray`` and ``random``
+are the Barrett hand's baselines (``bench/baseline_peer.py``): OpenRAVE's approach-ray sampler, its
+best by force closure then ε after 10 s of trials, and GraspIt!'s random approaches, in the order
+drawn.
 
 Every finished run is one JSON line of ``OUT/runs.jsonl`` (per grasp: its measures and every trial's
 outcome); runs already there are skipped, so an interrupted benchmark resumes.
@@ -57,7 +60,7 @@ from bench_scenes import (HANDS, THIRD_PARTY_HANDS, bootstrap_mean, hands_and_mo
 
 MODES = ("free", "support")
 #: Peers: planners that are not pairgrasp's, each with the bundled hand it grasps with.
-PEERS = {"gpg": "parallel_jaw"}
+PEERS = {"gpg": "parallel_jaw", "approach_ray": "barrett", "random": "barrett"}
 from bench_scenes import SEED  # noqa: E402  (the plan and the trials use the scene benchmark's seed)
 
 
@@ -148,13 +151,14 @@ def one_run(obj, files, hand_name, mode, out, threads, pool, trials, timeout, pl
     rec = {"object": obj.name, "rel": obj.rel, "split": obj.split, "hand": hand_name, "mode": mode,
            "height": round(files["height"], 6), "plan_time": None, "sim_wall": None, "grasps": [],
            "counts": {}, "error": None, "reason": None}
-    jaw = PEERS.get(hand_name)
-    if jaw is None:
+    peer_hand = PEERS.get(hand_name)
+    if peer_hand is None:
         run_dir, cmd = plan_command(obj, files, hand_name, mode, out, threads, pool)
     else:
         run_dir = os.path.join(out, "runs", hand_name, mode, obj.name)
         os.makedirs(run_dir, exist_ok=True)
-        cmd = [sys.executable, os.path.join(HERE, f"{hand_name}_peer.py"), "--hand", HANDS[jaw], "--target",
+        script = ["gpg_peer.py"] if hand_name == "gpg" else ["baseline_peer.py", hand_name]
+        cmd = [sys.executable, os.path.join(HERE, script[0]), *script[1:], "--hand", HANDS[peer_hand], "--target",
                files["free"] if mode == "free" else files["rest"], "-o", run_dir, "--top", str(pool), "--seed", str(SEED)]
         if mode == "support":
             cmd.append("--support")
@@ -185,10 +189,10 @@ def one_run(obj, files, hand_name, mode, out, threads, pool, trials, timeout, pl
     if "gpg" in doc["timings"]:
         rec["generation_time"] = round(float(doc["timings"]["gpg"]), 4)
     rec["counts"] = doc.get("counts", {})
-    if jaw is not None and not doc.get("grasps"):
+    if peer_hand is not None and not doc.get("grasps"):
         rec["reason"] = "no candidate clear of the mesh"
         return rec
-    if jaw is None and not any(g.get("force_closure") and g.get("epsilon", 0) > 0 for g in doc.get("grasps", [])):
+    if peer_hand is None and not any(g.get("force_closure") and g.get("epsilon", 0) > 0 for g in doc.get("grasps", [])):
         rec["reason"] = reason_without_grasp(rec["counts"])
         return rec
     rc, wall, err, _ = run_cmd(pairgrasp_cmd("simulate", gpath, "--top", len(doc["grasps"]), "--trials", trials,
@@ -202,7 +206,7 @@ def one_run(obj, files, hand_name, mode, out, threads, pool, trials, timeout, pl
     hand = _hand(hand_name)
     for g in doc["grasps"]:
         m = measures(hand, g)
-        m["ungated"] = jaw is not None
+        m["ungated"] = peer_hand is not None
         sim = g.get("simulation", {})
         m["held"] = sim.get("success_rate")
         m["trials"] = [trial_record(t) for t in sim.get("trials", [])]

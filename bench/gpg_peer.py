@@ -33,13 +33,14 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import os
 import sys
 import tempfile
 import time
 
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 #: Where GPG's camera (its binding's origin) stands: 0.5 m from the object's centre, along this unit
 #: vector of the object's frame (above it, 30 degrees off the vertical).
@@ -143,25 +144,20 @@ def run(hand_path, target_path, out, support=False, n_points=3000, samples=500, 
     import trimesh
 
     import pairgrasp as pg
-    from pairgrasp.grasps_file import GRASPS_FORMAT, write_grasps
-    from pairgrasp.planner import support_plane
+    import peer_grasps
 
-    hand = pg.load_hand(hand_path)
+    hand, target, plane, checker = peer_grasps.scene(hand_path, target_path, support)
     geometry = jaw_geometry(hand)
-    target = pg.load_mesh(target_path)
     mesh = trimesh.Trimesh(np.asarray(target.vertices), np.asarray(target.faces), process=False)
     rng = np.random.default_rng(seed)
-    points, _ = trimesh.sample.sample_surface(mesh, n_points, seed=rng)
     # On a table the cloud is the object's alone, segmented as GPG's users segment the table out
-    # (its seeds would otherwise land on the table); the table is the checker's support plane.
-    plane = support_plane(True, target) if support else None
+    # (its seeds would otherwise land on the table); the table is the checker's obstacle.
+    points, _ = trimesh.sample.sample_surface(mesh, n_points, seed=rng)
     centre = 0.5 * (mesh.bounds[0] + mesh.bounds[1])
     shift = -(centre + VIEW_DISTANCE * VIEW)     # object frame -> GPG's cloud frame (a translation)
     frames, gpg_seconds, cfg = gpg_candidates(points + shift, geometry, samples)
 
     t0 = time.perf_counter()
-    table = [pg.support_box(plane, target, 0.15)] if plane is not None else []
-    checker = pg.GraspChecker(hand, target, obstacles=table, support=plane)
     open_q = np.asarray(hand.dof_upper, float)
     grasps, colliding = [], 0
     for F in frames:
@@ -173,34 +169,15 @@ def run(hand_path, target_path, out, support=False, n_points=3000, samples=500, 
         if checker.check(W, open_q).pruned:
             colliding += 1
             continue
-        e = pg.evaluate_grasp(checker, W, open_q)
-        q = np.asarray(e.dofs, float)
-        contacts = [{"point": [float(v) for v in p], "normal": [float(v) for v in n / np.linalg.norm(n)], "link": str(l)}
-                    for p, n, l in zip(np.asarray(e.contact_points), np.asarray(e.contact_normals), e.contact_links)]
-        grasps.append({"rank": len(grasps) + 1, "wrist_pose": W.tolist(), "dof": q.tolist(),
-                       "joints": {k: float(v) for k, v in hand.joint_values(q).items()},
-                       "epsilon": float(max(e.epsilon, 0.0)), "volume": float(max(e.volume, 0.0)),
-                       "force_closure": bool(e.force_closure and not e.pruned),
-                       "alignment_quality": 0.0, "votes": 0, "penetration_depth": float(max(e.depth, 0.0)),
-                       "contacts": contacts})
+        grasps.append(peer_grasps.grasp_entry(hand, W, pg.evaluate_grasp(checker, W, open_q), len(grasps) + 1))
     check_seconds = time.perf_counter() - t0
-    inputs = {"hand": hand.name, "hand_spec": os.path.abspath(hand_path), "target": os.path.abspath(target_path),
-              "target_faces": int(len(target.faces))}
-    if plane is not None:
-        inputs["support"] = {"point": [float(v) for v in np.asarray(plane.point)],
-                             "normal": [float(v) for v in np.asarray(plane.normal)]}
-    doc = {"format": GRASPS_FORMAT, "inputs": inputs,
-           "parameters": {"peer": "gpg", "points": n_points, "samples": samples, "seed": seed, "gpg": cfg,
-                          "view": (VIEW_DISTANCE * VIEW).tolist()},
-           "counts": {"gpg_candidates": len(frames), "colliding": colliding, "kept": len(grasps),
-                      "force_closure": sum(g["force_closure"] for g in grasps)},
-           "timings": {"gpg": round(gpg_seconds, 4), "check": round(check_seconds, 4),
-                       "total": round(gpg_seconds + check_seconds, 4)},
-           "grasps": grasps}
-    os.makedirs(out, exist_ok=True)
-    path = os.path.join(out, "grasps.json")
-    write_grasps(path, doc)
-    return doc
+    return peer_grasps.write(
+        out, hand, hand_path, target, target_path, plane, grasps,
+        parameters={"peer": "gpg", "points": n_points, "samples": samples, "seed": seed, "gpg": cfg,
+                    "view": (VIEW_DISTANCE * VIEW).tolist()},
+        counts={"gpg_candidates": len(frames), "colliding": colliding},
+        timings={"gpg": round(gpg_seconds, 4), "check": round(check_seconds, 4),
+                 "total": round(gpg_seconds + check_seconds, 4)})
 
 
 def main(argv=None) -> int:
