@@ -1,6 +1,7 @@
-"""The GPG peer of the held-out benchmark (bench/gpg_peer.py): the jaw's geometry as GPG models it,
-read from the hand's meshes, against the bundled jaw's URDF numbers, and GPG's hand frame put on
-the jaw. GPG itself is not needed."""
+"""The held-out benchmark's peers: GPG's (bench/gpg_peer.py) jaw geometry as GPG models it, read from
+the hand's meshes, against the bundled jaw's URDF numbers, and GPG's hand frame put on the jaw (GPG
+itself is not needed); the baselines' grasps (bench/baseline_peer.py) read back by pairgrasp's own
+reader, as `pairgrasp simulate` reads them, and checked independently."""
 import pathlib
 import sys
 
@@ -12,6 +13,7 @@ import pairgrasp as pg
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "bench"))
+import baseline_peer  # noqa: E402
 import gpg_peer  # noqa: E402
 
 JAW = ROOT / "models" / "parallel_jaw" / "parallel_jaw.json"
@@ -61,3 +63,20 @@ def test_gpg_frame_put_on_the_jaw():
 def test_a_hand_that_is_not_a_jaw_is_refused():
     with pytest.raises(ValueError, match="one DOF"):
         gpg_peer.jaw_geometry(pg.load_hand(str(ROOT / "models" / "barrett" / "barrett.json")))
+
+
+def test_baseline_grasps_read_back_as_a_plan(tmp_path):
+    barrett = ROOT / "models" / "barrett" / "barrett.json"
+    box = ROOT / "models" / "targets" / "box.stl"
+    doc = baseline_peer.run("random", str(barrett), str(box), str(tmp_path), top=2, seed=3)
+    planned = pg.grasps_file.load_planned(str(tmp_path / "grasps.json"))
+    assert len(planned.grasps.grasps) == len(doc["grasps"]) == 2
+    assert planned.hand.name == "barrett_bh8_28x" and len(planned.target.faces) == 12
+    for g in planned.grasps.grasps:
+        R = g.wrist_pose[:3, :3]
+        np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-9)
+        # the hand was brought in from outside: its wrist lies outside the box (0.06 x 0.06 x 0.12 m)
+        x, y, z = g.wrist_pose[:3, 3]
+        assert max(abs(x), abs(y)) > 0.03 or not 0.0 <= z <= 0.12
+    with pytest.raises(ValueError, match="method"):
+        baseline_peer.run("nearest", str(barrett), str(box), str(tmp_path))
