@@ -61,6 +61,9 @@ from bench_scenes import (HANDS, THIRD_PARTY_HANDS, bootstrap_mean, hands_and_mo
 MODES = ("free", "support")
 #: Peers: planners that are not pairgrasp's, each with the bundled hand it grasps with.
 PEERS = {"gpg": "parallel_jaw", "approach_ray": "barrett", "random": "barrett"}
+#: The command line (in bench/) that writes a peer's grasps.json.
+PEER_SCRIPTS = {"gpg": ["gpg_peer.py"], "approach_ray": ["baseline_peer.py", "approach_ray"],
+                "random": ["baseline_peer.py", "random"]}
 from bench_scenes import SEED  # noqa: E402  (the plan and the trials use the scene benchmark's seed)
 
 
@@ -157,7 +160,7 @@ def one_run(obj, files, hand_name, mode, out, threads, pool, trials, timeout, pl
     else:
         run_dir = os.path.join(out, "runs", hand_name, mode, obj.name)
         os.makedirs(run_dir, exist_ok=True)
-        script = ["gpg_peer.py"] if hand_name == "gpg" else ["baseline_peer.py", hand_name]
+        script = PEER_SCRIPTS[hand_name]
         cmd = [sys.executable, os.path.join(HERE, script[0]), *script[1:], "--hand", HANDS[peer_hand], "--target",
                files["free"] if mode == "free" else files["rest"], "-o", run_dir, "--top", str(pool), "--seed", str(SEED)]
         if mode == "support":
@@ -394,9 +397,7 @@ def main(argv=None):
                     help="simulate the plans of an earlier run's folder again instead of planning")
     ap.add_argument("--markdown", default=None)
     args = ap.parse_args(argv)
-    asked = [h for h in args.hands.split(",") if h]
-    hands, modes = hands_and_modes(ap, ",".join(h for h in asked if h not in PEERS) or "barrett", args.modes, MODES)
-    hands = [h for h in asked if h in PEERS or h in hands]
+    hands, modes = hands_and_modes(ap, args.hands, args.modes, MODES, peers=PEERS)
     os.makedirs(args.out, exist_ok=True)
     for h in hands:
         if h in THIRD_PARTY_HANDS:

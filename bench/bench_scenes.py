@@ -401,13 +401,15 @@ def stage_table(runs):
 
 # ----------------------------------------------------------------- main
 
-def hands_and_modes(ap, hands_arg: str, modes_arg: str, known_modes):
-    """The comma-separated --hands and --modes as lists; an unknown name is the parser's error."""
+def hands_and_modes(ap, hands_arg: str, modes_arg: str, known_modes, peers=()):
+    """The comma-separated --hands and --modes as lists; an unknown name is the parser's error.
+    ``peers``: other names --hands accepts (a benchmark's peers)."""
     hands = [h for h in hands_arg.split(",") if h]
     modes = [m for m in modes_arg.split(",") if m]
+    known = list(HANDS) + list(THIRD_PARTY_HANDS) + list(peers)
     for h in hands:
-        if h not in HANDS and h not in THIRD_PARTY_HANDS:
-            ap.error(f"unknown hand {h!r} (one of {', '.join(list(HANDS) + list(THIRD_PARTY_HANDS))})")
+        if h not in known:
+            ap.error(f"unknown hand {h!r} (one of {', '.join(known)})")
     for m in modes:
         if m not in known_modes:
             ap.error(f"unknown mode {m!r} (one of {', '.join(known_modes)})")
