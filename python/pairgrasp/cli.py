@@ -83,16 +83,18 @@ def _planner_from_args(args):
                               occluder_distance=args.occluder_distance, scale=args.scale, **_plan_params(args))
 
 
-def _table(grasps, held=None) -> str:
-    """The grasps as printed by plan; ``held``: {planned rank: success rate} of verified grasps."""
+def _table(grasps, verified=None) -> str:
+    """The grasps as printed by plan; ``verified``: (column name, {planned rank: text}) of verified
+    grasps."""
+    name, held = verified if verified else ("", {})
     robust = any(g.force_closure_probability is not None for g in grasps)
     load = any(g.load_resistance is not None for g in grasps)
     rows = [f"{'rank':>4s}  {'epsilon':>8s}  {'fc':>3s}" + ("   load" if load else "") + ("  P(fc)  eps_q25" if robust else "") +
-            f"  {'Q_A':>8s}  {'votes':>5s}  {'penetration':>11s}  contacts" + ("  held" if held else "")]
+            f"  {'Q_A':>8s}  {'votes':>5s}  {'penetration':>11s}  contacts" + (f"  {name}" if held else "")]
     for rank, g in enumerate(grasps, start=1):
         r = (f"  {g.force_closure_probability:5.2f}  {g.robust_epsilon:7.4f}" if g.force_closure_probability is not None
              else "      -        -") if robust else ""
-        h = (f"  {held[g.rank]:.2f} (planned {g.rank})" if g.rank in held else "") if held else ""
+        h = (f"  {held[g.rank]} (planned {g.rank})" if g.rank in held else "") if held else ""
         lr = (f"  {g.load_resistance:5.3f}" if g.load_resistance is not None else "      -") if load else ""
         rows.append(f"{rank:>4d}  {g.epsilon:>8.4f}  {'yes' if g.force_closure else 'no':>3s}{lr}{r}  "
                     f"{g.alignment_quality:>8.3f}  {g.votes:>5d}  {1000 * g.penetration_depth:>8.2f} mm  "
@@ -104,6 +106,8 @@ def _cmd_plan(args) -> int:
     out = args.output
     if os.path.exists(out) and not os.path.isdir(out):
         raise ValueError(f"-o: {out} exists and is not a directory")
+    if args.verify != "trials" and not args.verify_top:
+        raise ValueError("--verify: only with --verify-top K")
     if args.verify_top:
         from .sim import import_mujoco
 
@@ -117,7 +121,7 @@ def _cmd_plan(args) -> int:
     tmpdir = tempfile.mkdtemp(prefix=".pairgrasp-", dir=parent)
     try:
         verify = (lambda path, doc: _verify(args, planner, result, path, doc)) if args.verify_top else None
-        pictures, grasps, held = write_plan(planner, result, tmpdir, args.pictures, os.path.basename(args.target),
+        pictures, grasps, verified = write_plan(planner, result, tmpdir, args.pictures, os.path.basename(args.target),
                                              verify)
         finish_outdir(tmpdir, out)
     finally:
@@ -126,7 +130,7 @@ def _cmd_plan(args) -> int:
     print(f"{planner.hand.name} on {args.target}: {c['unit_facets']} unit facets, {c['stored_pairs']} pairs, "
           f"{c['samples']} DOF samples ({c['rejected']} rejected), {c['evaluated']} candidates evaluated, "
           f"{c['force_closure']} force-closure")
-    print(_table(grasps, held))
+    print(_table(grasps, verified))
     stages = ", ".join(f"{k} {v:.2f}" for k, v in result.timings.items() if k != "total")
     t1 = time.perf_counter()
     after = "to simulate and write" if args.verify_top else "to write"
@@ -167,15 +171,20 @@ def _cmd_batch(args) -> int:
 
 def _verify(args, planner, result, path, doc):
     """plan --verify-top: simulates the best grasps of the document (to be written to ``path``) and
-    re-ranks them in it by how often they held; returns the grasps in the new order and {planned
-    rank: success rate}."""
+    re-ranks them in it (``--verify``: by how often they held, or how far the lift check moved the
+    object); returns the grasps in the new order and the table's column (name, {planned rank: text})."""
     from .sim import verify_grasps
 
     order = verify_grasps(path, top=args.verify_top, trials=args.trials, seed=args.seed, document=doc,
-                          hand=planner.hand, target=planner.target)
-    held = {g["planned_rank"]: g["simulation"]["success_rate"] for g in doc["grasps"] if "simulation" in g}
+                          hand=planner.hand, target=planner.target, check=args.verify)
+    if args.verify == "lift":
+        column = ("moved", {g["planned_rank"]: f"{1000 * g['lift_check']['moved']:.1f} mm"
+                            for g in doc["grasps"] if "lift_check" in g})
+    else:
+        column = ("held", {g["planned_rank"]: f"{g['simulation']['success_rate']:.2f}"
+                           for g in doc["grasps"] if "simulation" in g})
     by_rank = {g.rank: g for g in result.grasps}
-    return [by_rank[r] for r in order], held
+    return [by_rank[r] for r in order], column
 
 
 def _cmd_figures(args) -> int:
@@ -437,7 +446,11 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--pictures", type=_count(0), default=5, help="pictures of the best grasps (default 5)")
     plan.add_argument("--verify-top", type=_count(1), metavar="K",
                       help="simulate the K best grasps in MuJoCo (needs .[sim]) and re-rank them by how often they "
-                      "held over --trials perturbed trials")
+                      "held over --trials perturbed trials (--verify lift: how little the closing and the lift "
+                      "move the object, as planned)")
+    plan.add_argument("--verify", choices=["trials", "lift"], default="trials",
+                      help="what --verify-top simulates: every trial of the whole procedure (default), or the "
+                      "closing and the lift alone, about a sixth of one trial")
     plan.add_argument("--trials", type=_count(1), default=4, help="trials per verified grasp (default 4)")
     plan.set_defaults(func=_cmd_plan)
     figs = sub.add_parser("figures", help="plan, then draw the paper's Figures 7 and 8 as PNG files")

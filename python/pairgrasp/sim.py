@@ -632,16 +632,22 @@ class Simulator:
 
     # ----- simulation -----
 
-    def simulate(self, wrist_pose, dofs, friction: Optional[float] = None, density: Optional[float] = None
-                 ) -> SimResult:
+    def simulate(self, wrist_pose, dofs, friction: Optional[float] = None, density: Optional[float] = None,
+                 until: Optional[float] = None) -> SimResult:
         """Closes the hand at ``wrist_pose`` (wrist frame in the target frame, 4x4) from ``dofs``
         (the planned closed DOF values, opened by ``open_fraction`` first), loads and shakes the
         grasp, and returns the outcome. ``friction`` and ``density`` override the parameters for
-        this run (for robustness trials).
+        this run (for robustness trials). ``until``: s of the load procedure after closing to run
+        (None: all of it; 0: the closing alone; ``turn_time``: the closing and the lift), for a
+        cheap check; the outcome then covers what ran.
 
         Raises:
-            ValueError: a pose that is not rigid, DOF values of the wrong size or out of the limits.
+            ValueError: a pose that is not rigid, DOF values of the wrong size or out of the limits,
+                a negative or non-finite ``until``.
         """
+        if until is not None and (isinstance(until, bool) or not isinstance(until, (int, float))
+                                  or not math.isfinite(until) or until < 0):
+            raise ValueError(f"until: expected a finite number >= 0 (s), got {until!r}")
         mujoco = import_mujoco()
         t_wall = time.perf_counter()
         p, h, m = self.params, self.hand, self.model
@@ -711,7 +717,7 @@ class Simulator:
             check_every = max(1, int(round(0.005 / p.timestep)))
             step = 0
             while not unstable:
-                g = load_profile(p, t)
+                g = load_profile(p, t) if until is None or t < until else None
                 if g is None:
                     break
                 if not lifted:                              # lift: the obstacles recede, then go away
@@ -908,23 +914,29 @@ def _check_top(top):
         raise ValueError(f"top: expected an integer >= 1, got {top!r}")
 
 
-def _simulate_planned(planned, path, top, params, progress, perturbations, seed, noise, mass, overrides) -> SimReport:
-    """simulate_grasps() on a plan already read: records every outcome in ``planned.grasps.document``
-    (which is not written) and returns the report (no picture)."""
+def _planned_scene(planned, path, params, mass, overrides) -> "Simulator":
+    """The Simulator of a plan already read: its hand and target, its obstacles and occluders, and
+    the table it stood on (``inputs.support``), which recedes along the support's normal."""
     from .grasps_file import resolve_path, recorded_support
 
-    gf, hand, target, scale, base = planned.grasps, planned.hand, planned.target, planned.scale, planned.base
-    inputs = gf.inputs
+    inputs, scale, base = planned.grasps.inputs, planned.scale, planned.base
     others = []
     for key in ("obstacles", "occluders"):
         for k, o in enumerate(inputs.get(key, []) or []):
             others.append(_core.load_mesh(resolve_path(o, base, f"{path}: inputs.{key}[{k}]"), scale=scale))
     support = recorded_support(inputs)
     if support is not None:   # the table the target stood on while the hand closed, taken away for the load
-        others.append(_core.support_box(support, target, SUPPORT_MARGIN))
-    grasps = gf.grasps if top is None else gf.grasps[:top]
+        others.append(_core.support_box(support, planned.target, SUPPORT_MARGIN))
     lift = support.normal if support is not None else (0.0, 0.0, 1.0)
-    sim = Simulator(hand, target, others, params=params, mass=mass, lift_direction=lift, **overrides)
+    return Simulator(planned.hand, planned.target, others, params=params, mass=mass, lift_direction=lift, **overrides)
+
+
+def _simulate_planned(planned, path, top, params, progress, perturbations, seed, noise, mass, overrides) -> SimReport:
+    """simulate_grasps() on a plan already read: records every outcome in ``planned.grasps.document``
+    (which is not written) and returns the report (no picture)."""
+    gf = planned.grasps
+    grasps = gf.grasps if top is None else gf.grasps[:top]
+    sim = _planned_scene(planned, path, params, mass, overrides)
     per_grasp = []
     for k, g in enumerate(grasps):
         per_grasp.append(simulate_trials(sim, g.wrist_pose, g.dofs, perturbations))
@@ -948,35 +960,66 @@ def _simulate_planned(planned, path, top, params, progress, perturbations, seed,
 SUPPORT_MARGIN = 0.15
 
 
+#: What ``plan --verify-top`` simulates: every trial of the whole procedure, or the lift check.
+VERIFY_CHECKS = ("trials", "lift")
+
+
 def verify_grasps(path, top: int, trials: int = 4, seed: int = 0, progress=None, document=None, hand=None,
-                  target=None, **kwargs) -> List[int]:
-    """Simulation in the loop: simulates the first ``top`` grasps of a grasps.json file
-    (:func:`simulate_grasps` with ``trials`` and ``seed``; ``kwargs`` go to it) and re-ranks them by
-    their success rate (ties keep the planned order; the grasps after ``top`` keep theirs). Each
-    grasp keeps its planned rank as ``planned_rank`` and the document records ``verification``:
-    ``{"top", "trials", "seed", "planned_ranks"}`` (the planned ranks in the new order). Returns
-    the planned ranks in the new order.
+                  target=None, check: str = "trials", **kwargs) -> List[int]:
+    """Simulation in the loop: simulates the first ``top`` grasps of a grasps.json file and re-ranks
+    them (ties keep the planned order; the grasps after ``top`` keep theirs). Each grasp keeps its
+    planned rank as ``planned_rank`` and the document records ``verification``: ``{"top", "check",
+    "planned_ranks"}`` (the planned ranks in the new order), with ``"trials"`` and ``"seed"`` for
+    the trials check. Returns the planned ranks in the new order.
+
+    ``check``:
+
+    - ``"trials"``: :func:`simulate_grasps` with ``trials`` and ``seed`` (``kwargs`` go to it); the
+      grasps are re-ranked by their success rate, each gets its ``simulation``.
+    - ``"lift"``: the grasp as planned, without errors, through the closing and the lift only
+      (:meth:`Simulator.simulate` ``until=turn_time``: gravity fades in while the table recedes), about
+      a sixth of one trial; the grasps are re-ranked by how far the object moved, the closing's
+      translation of its centre of mass relative to the palm plus the lift's largest, least first.
+      Each gets ``lift_check``: ``{"moved", "closing_translation", "lift_translation" (m),
+      "outcome", "contact_links", "wall_time" (s)}``. ``trials`` and ``seed`` are not used.
 
     ``document``: the plan's document not yet written (as ``plan --verify-top`` passes it): it is
     simulated and re-ranked in place and not written; ``path`` is where it will be written (its
     folder is where recorded paths are relative to). Without it, ``path`` is read and written back.
 
-    Raises what :func:`simulate_grasps` raises.
+    Raises what :func:`simulate_grasps` raises, and ValueError for an unknown ``check``.
     """
     from .grasps_file import load_planned, write_grasps
 
     path = os.fspath(path)
     _check_top(top)
+    if check not in VERIFY_CHECKS:
+        raise ValueError(f"check: expected one of {', '.join(VERIFY_CHECKS)}, got {check!r}")
     import_mujoco()
     noise = kwargs.pop("noise", None)
     perturbations = trial_perturbations(trials, seed, noise)
     planned = load_planned(path, hand, target, document=document)
-    rep = _simulate_planned(planned, path, top, kwargs.pop("params", None), progress, perturbations, seed, noise,
-                            kwargs.pop("mass", None), kwargs)
     doc = planned.grasps.document
     items = doc["grasps"]
-    head = sorted(range(len(rep.trials)), key=lambda i: -rep.success_rates[i])   # stable: ties in planned order
-    order = head + list(range(len(rep.trials), len(items)))
+    if check == "trials":
+        rep = _simulate_planned(planned, path, top, kwargs.pop("params", None), progress, perturbations, seed,
+                                noise, kwargs.pop("mass", None), kwargs)
+        n = len(rep.trials)
+        key = [-x for x in rep.success_rates]
+    else:
+        sim = _planned_scene(planned, path, kwargs.pop("params", None), kwargs.pop("mass", None), kwargs)
+        grasps = planned.grasps.grasps[:top]
+        n, key = len(grasps), []
+        for k, (g, item) in enumerate(zip(grasps, items)):
+            r = sim.simulate(g.wrist_pose, g.dofs, until=sim.params.turn_time)
+            key.append(r.closing_translation + r.slip_translation)
+            item["lift_check"] = {"moved": round(key[-1], 9), "closing_translation": round(r.closing_translation, 9),
+                                  "lift_translation": round(r.slip_translation, 9), "outcome": r.outcome,
+                                  "contact_links": list(r.contact_links), "wall_time": round(r.wall_time, 4)}
+            if progress:
+                progress(k + 1, n, r)
+    head = sorted(range(n), key=lambda i: key[i])   # stable: ties in planned order
+    order = head + list(range(n, len(items)))
     reranked = []
     for new_rank, i in enumerate(order, start=1):
         g = dict(items[i])
@@ -984,8 +1027,9 @@ def verify_grasps(path, top: int, trials: int = 4, seed: int = 0, progress=None,
         g["rank"] = new_rank
         reranked.append(g)
     doc["grasps"] = reranked
-    doc["verification"] = {"top": len(head), "trials": int(trials), "seed": int(seed),
-                           "planned_ranks": [g["planned_rank"] for g in reranked[:len(head)]]}
+    doc["verification"] = {"top": len(head), "check": check, **(
+        {"trials": int(trials), "seed": int(seed)} if check == "trials" else {}),
+        "planned_ranks": [g["planned_rank"] for g in reranked[:len(head)]]}
     if document is None:
         write_grasps(path, doc)
     return [g["planned_rank"] for g in reranked]

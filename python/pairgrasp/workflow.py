@@ -72,17 +72,17 @@ def write_plan(planner, result, folder: str, pictures: int, label: str, verify=N
     """Writes what `plan` leaves in its output folder into ``folder``: grasps.json and a picture of
     each of the best ``pictures`` grasps (``label``: the target's name in their titles). ``verify``
     (plan --verify-top): a function (path, document) that simulates the document's best grasps and
-    re-ranks them in it, returning (grasps in the new order, {planned rank: success rate}); the file
-    is written once, at the end. Returns (number of pictures, grasps in their final order, that
-    success map or None)."""
+    re-ranks them in it, returning (grasps in the new order, the table's column: (name, {planned
+    rank: text})); the file is written once, at the end. Returns (number of pictures, grasps in
+    their final order, that column or None)."""
     from . import render
     from .grasps_file import write_grasps
 
     doc = result.to_dict()
     path = os.path.join(folder, "grasps.json")
-    grasps, held = result.grasps, None
+    grasps, verified = result.grasps, None
     if verify is not None:
-        grasps, held = verify(path, doc)
+        grasps, verified = verify(path, doc)
     names = []
     for rank, g in enumerate(grasps[:pictures], start=1):
         name = f"grasp_{rank:02d}.png"
@@ -90,4 +90,4 @@ def write_plan(planner, result, folder: str, pictures: int, label: str, verify=N
         names.append(name)
     doc["pictures"] = names
     write_grasps(path, doc)
-    return len(names), grasps, held
+    return len(names), grasps, verified

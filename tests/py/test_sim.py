@@ -461,8 +461,37 @@ def test_perturbed_trials_and_verification_rerank_by_outcome(tmp_path):
     assert pg.verify_grasps(path, top=2, trials=2, seed=2) == [2, 1]
     out = json.loads(path.read_text())
     assert [(g["rank"], g["planned_rank"]) for g in out["grasps"]] == [(1, 2), (2, 1)]
-    assert out["verification"] == {"top": 2, "trials": 2, "seed": 2, "planned_ranks": [2, 1]}
+    assert out["verification"] == {"top": 2, "check": "trials", "trials": 2, "seed": 2, "planned_ranks": [2, 1]}
     assert pg.load_grasps(path).grasps[0].epsilon == 0.1
+    # the lift check, on the plan's order: the closing on air lets the object fall as gravity fades in
+    # (dropped: beyond 5 x 10 mm within the lift's 0.25 s, where free fall would take it ~0.15 m); the
+    # antipodal grasp holds it within the 10 mm threshold
+    path.write_text(json.dumps(doc))
+    assert pg.verify_grasps(path, top=2, check="lift") == [2, 1]
+    out = json.loads(path.read_text())
+    assert out["verification"] == {"top": 2, "check": "lift", "planned_ranks": [2, 1]}
+    held, air = (g["lift_check"] for g in out["grasps"])
+    assert held["outcome"] == "held" and held["moved"] < 0.01 and held["contact_links"]
+    assert air["outcome"] == "dropped" and air["moved"] > 0.05 and air["contact_links"] == []
+    assert held["moved"] == pytest.approx(held["closing_translation"] + held["lift_translation"], abs=2e-9)
+    with pytest.raises(ValueError, match="check: expected one of trials, lift"):
+        pg.verify_grasps(path, top=2, check="load")
+
+
+def test_simulate_until_stops_the_procedure_after_the_closing_or_the_lift():
+    sim = pg.Simulator(JAW, BOX)
+    doc = grasps_doc()
+    g = doc["grasps"][0]
+    T, q = np.asarray(g["wrist_pose"]), np.asarray(g["dof"])
+    p = sim.params
+    closing = sim.simulate(T, q, until=0.0)
+    assert closing.time_simulated == pytest.approx(p.close_time) and closing.slip_translation == 0.0
+    lift = sim.simulate(T, q, until=p.turn_time)
+    assert lift.time_simulated == pytest.approx(p.close_time + p.turn_time, abs=2 * p.timestep)
+    assert lift.closing_translation == pytest.approx(closing.closing_translation, abs=1e-9)   # deterministic
+    for bad in (-0.1, math.nan, "0.2"):
+        with pytest.raises(ValueError, match="until: expected a finite number >= 0"):
+            sim.simulate(T, q, until=bad)
 
 
 @pytest.mark.slow
@@ -492,3 +521,18 @@ def test_plan_verify_top_simulates_and_reranks(tmp_path, monkeypatch, capsys):
     assert all("simulation" not in x for x in g[2:])
     assert doc["inputs"]["hand_spec"] == str(JAW) and doc["pictures"] == ["grasp_01.png"]
     assert "held" in r.out.splitlines()[1]
+    # --verify lift: the cheap check, its column, its record; --verify alone is refused
+    code = cli.main([str(a) for a in (
+        "plan", "--hand", JAW, "--target", BOX, "--paint", MODELS / "targets" / "box.paint.json", "--edge",
+        "0.008", "--top", "3", "--seed", "1", "--pictures", "0", "--verify-top", "3", "--verify", "lift", "--quiet",
+        "-o", out)])
+    r = capsys.readouterr()
+    assert code == 0, r.err
+    doc = json.loads((out / "grasps.json").read_text())
+    assert doc["verification"]["check"] == "lift" and "trials" not in doc["verification"]
+    moved = [x["lift_check"]["moved"] for x in doc["grasps"]]
+    assert moved == sorted(moved) and all("simulation" not in x for x in doc["grasps"])
+    assert "moved" in r.out.splitlines()[1] and " mm (planned " in r.out
+    code = cli.main([str(a) for a in ("plan", "--hand", JAW, "--target", BOX, "--verify", "lift", "-o", tmp_path / "x")])
+    assert code != 0 and capsys.readouterr().err.strip() == "pairgrasp: error: --verify: only with --verify-top K"
+    assert not (tmp_path / "x").exists()
