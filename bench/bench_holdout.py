@@ -44,6 +44,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shlex
 import statistics
 import sys
 import threading
@@ -55,7 +56,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import objects as objset  # noqa: E402
-from bench_scenes import (HANDS, THIRD_PARTY_HANDS, bootstrap_mean, hands_and_modes, load_runs,  # noqa: E402
+from bench_scenes import (HANDS, PLAN_ARGS, THIRD_PARTY_HANDS, bootstrap_mean, hands_and_modes, load_runs,  # noqa: E402
                           pairgrasp_cmd, plan_command, prepare, propose_third_party, reason_without_grasp, run_cmd)
 
 MODES = ("free", "support")
@@ -128,7 +129,8 @@ def finger_measures(hand, grasp):
 def measures(hand, grasp) -> dict:
     contacts = grasp.get("contacts") or []
     opp, drive = finger_measures(hand, grasp)
-    return {"rank": grasp.get("rank"), "epsilon": grasp.get("epsilon"),
+    return {"rank": grasp.get("rank"), "planned_rank": grasp.get("planned_rank", grasp.get("rank")),
+            "epsilon": grasp.get("epsilon"),
             "force_closure": bool(grasp.get("force_closure") and grasp.get("epsilon", 0) > 0),
             "load_resistance": grasp.get("load_resistance"),
             "links": len({c["link"] for c in contacts}),
@@ -237,6 +239,7 @@ def held_of(g):
 #: Ways to pick rank 1 among a plan's grasps (each a key: the largest wins among force-closure grasps).
 RULES = {
     "as planned (the default ranking's rank 1)": None,
+    "the plan's order before plan --verify-top": lambda g: (-g.get("planned_rank", g["rank"]),),
     "largest epsilon": lambda g: (g["epsilon"],),
     "largest load resistance": lambda g: (g["load_resistance"] or 0.0, g["epsilon"]),
     "most links in contact, then epsilon": lambda g: (g["links"], g["epsilon"]),
@@ -396,7 +399,10 @@ def main(argv=None):
     ap.add_argument("--plans-from", default=None, metavar="DIR",
                     help="simulate the plans of an earlier run's folder again instead of planning")
     ap.add_argument("--markdown", default=None)
+    ap.add_argument("--plan-args", default="", metavar="ARGS",
+                    help="more `pairgrasp plan` options for every plan, e.g. \"--verify-top 10 --verify lift\"")
     args = ap.parse_args(argv)
+    PLAN_ARGS[:] = shlex.split(args.plan_args)
     hands, modes = hands_and_modes(ap, args.hands, args.modes, MODES, peers=PEERS)
     os.makedirs(args.out, exist_ok=True)
     for h in hands:
