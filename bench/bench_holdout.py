@@ -185,6 +185,7 @@ def one_run(obj, files, hand_name, mode, out, threads, pool, trials, timeout, pl
         err = None
     else:
         rc, wall, err, _ = run_cmd(cmd, timeout)
+        rec["command_wall"] = round(wall, 3)     # the plan command's wall time, with --verify-top's simulations
     if err is not None:
         rec["error"], rec["reason"] = err, "plan failed"
         return rec
@@ -290,7 +291,7 @@ def cause_of(trial, grasp, mode):
 
 def tables(runs, hands, modes):
     lines = ["| hand | mode | split | objects | force closure | top-1 held [95% CI] | top-5 held [95% CI] "
-             "| median plan (s) |", "|---|---|---|---|---|---|---|---|"]
+             "| median plan (s) | median command (s) |", "|---|---|---|---|---|---|---|---|---|"]
     causes_lines, rule_lines = [], []
     for hand in hands:
         for mode in modes:
@@ -301,10 +302,12 @@ def tables(runs, hands, modes):
                 top1 = [held_of(r["grasps"][0]) if r["grasps"] else 0.0 for r in rs]
                 top5 = [float(np.mean([held_of(g) for g in r["grasps"][:5]])) if r["grasps"] else 0.0 for r in rs]
                 times = [r["plan_time"] for r in rs if r["plan_time"] is not None]
+                walls = [r["command_wall"] for r in rs if r.get("command_wall") is not None]
                 fc = sum(1 for r in rs if any(g["force_closure"] for g in r["grasps"]) or
                          (not r["grasps"] and r["reason"] is None and not r["error"]))
                 lines.append(f"| {hand} | {mode} | {split} | {len(rs)} | {fc} | {_ci(top1)} | {_ci(top5)} "
-                             f"| {_fmt(statistics.median(times) if times else None)} |")
+                             f"| {_fmt(statistics.median(times) if times else None)} "
+                             f"| {_fmt(statistics.median(walls) if walls else None)} |")
                 counts = {}
                 n_trials = 0
                 for r in rs:

@@ -176,7 +176,7 @@ def _verify(args, planner, result, path, doc):
     from .sim import verify_grasps
 
     order = verify_grasps(path, top=args.verify_top, trials=args.trials, seed=args.seed, document=doc,
-                          hand=planner.hand, target=planner.target, check=args.verify)
+                          hand=planner.hand, target=planner.given_target, check=args.verify)
     if args.verify == "lift":
         column = ("moved", {g["planned_rank"]: f"{1000 * g['lift_check']['moved']:.1f} mm"
                             for g in doc["grasps"] if "lift_check" in g})

@@ -206,6 +206,9 @@ class Planner:
     The target index, aligner and grasp checker are built once, in the constructor; :meth:`plan`
     may be called again with other schedules (``plan(schedule="grid")``).
 
+    ``target`` is the mesh planned on (simplified, and split where the free surface changes);
+    ``given_target`` is the mesh as given, the one grasps.json's ``inputs.target`` names.
+
     Raises:
         ValueError: bad parameters, an empty free set, a pair budget the target exceeds.
         pairgrasp.FileError: unreadable files.
@@ -217,7 +220,7 @@ class Planner:
         self.params = with_overrides(PlanParams, params, overrides, "planner")
         p = self.params
         self.hand = hand if isinstance(hand, _core.Hand) else _core.load_hand(os.fspath(hand))
-        given = as_mesh(target, "target")
+        given = self.given_target = as_mesh(target, "target")
         self.inputs = {"hand": self.hand.name, "hand_spec": os.fspath(hand) if not isinstance(hand, _core.Hand)
                        else self.hand.spec_path,
                        "target": os.fspath(target) if not isinstance(target, _core.Mesh) else "<mesh>",

@@ -533,6 +533,16 @@ def test_plan_verify_top_simulates_and_reranks(tmp_path, monkeypatch, capsys):
     moved = [x["lift_check"]["moved"] for x in doc["grasps"]]
     assert moved == sorted(moved) and all("simulation" not in x for x in doc["grasps"])
     assert "moved" in r.out.splitlines()[1] and " mm (planned " in r.out
+    # on a table: the planner splits the box's 12 faces where the table covers them, and the check
+    # simulates the file's target (inputs.target) with the table under it
+    code = cli.main([str(a) for a in (
+        "plan", "--hand", JAW, "--target", BOX, "--support", "--edge", "0.008", "--top", "2", "--seed", "1",
+        "--pictures", "0", "--verify-top", "2", "--verify", "lift", "--quiet", "-o", tmp_path / "table")])
+    r = capsys.readouterr()
+    assert code == 0, r.err
+    doc = json.loads((tmp_path / "table" / "grasps.json").read_text())
+    assert doc["inputs"]["support"] and doc["inputs"]["free_surface"]["faces"] > doc["inputs"]["target_faces"] == 12
+    assert doc["verification"]["check"] == "lift" and all("lift_check" in g for g in doc["grasps"][:2])
     code = cli.main([str(a) for a in ("plan", "--hand", JAW, "--target", BOX, "--verify", "lift", "-o", tmp_path / "x")])
     assert code != 0 and capsys.readouterr().err.strip() == "pairgrasp: error: --verify: only with --verify-top K"
     assert not (tmp_path / "x").exists()
