@@ -1,7 +1,7 @@
 // The free surface at patch resolution: every face classified against the marks (paint, regions,
-// occluders, viewpoints, support plane), divided faces split at their edge midpoints (conforming:
-// a split edge is split in both faces that share it) until no divided patch is longer than the
-// resolution.
+// occluders, viewpoints, support plane), divided faces bisected at their longest edge's midpoint
+// (conforming: a split edge is split in both faces that share it) until no divided patch is longer
+// than the resolution.
 #include <pairgrasp/free_surface.hpp>
 
 #include <pairgrasp/error.hpp>
@@ -323,21 +323,29 @@ FreeSurface refine(const Mesh& target, const Occlusion& occlusion, double resolu
         if (longest <= resolution) p.mark = fin ? Mark::Free : Mark::Occluded;
       }
     });
-    // The edges to split: every edge of every divided patch, midpoints numbered in patch order.
+    // The edges to split: the longest edge of every divided patch (longest-edge bisection: a long
+    // thin face that a mark crosses is cut across its length, not into ever thinner slivers along
+    // it, so the pieces grow with the length of the mark's boundary, not with the face's area),
+    // midpoints numbered in patch order.
     std::unordered_map<std::uint64_t, int> mid;
     for (const Patch& p : patches) {
       if (p.mark != Mark::Divided) continue;
       split_face[std::size_t(p.face)] = 1;
+      int longest = 0;
+      double length = -1.0;
       for (int k = 0; k < 3; ++k) {
-        const int a = p.v[k], b = p.v[(k + 1) % 3];
-        if (mid.emplace(edge_key(a, b), int(verts.size())).second)
-          verts.push_back((verts[std::size_t(a)] + verts[std::size_t(b)]) / 2.0);
+        const double l = (verts[std::size_t(p.v[k])] - verts[std::size_t(p.v[(k + 1) % 3])]).squaredNorm();
+        if (l > length) length = l, longest = k;
       }
+      const int a = p.v[longest], b = p.v[(longest + 1) % 3];
+      if (mid.emplace(edge_key(a, b), int(verts.size())).second)
+        verts.push_back((verts[std::size_t(a)] + verts[std::size_t(b)]) / 2.0);
     }
     if (mid.empty()) break;
-    if (round >= 60) throw std::logic_error("free_surface: refinement did not converge");
-    // Split: a divided patch into four; a settled one whose edges a neighbour split into two or
-    // three, keeping its mark (a part of a settled patch is settled the same way).
+    if (round >= 400) throw std::logic_error("free_surface: refinement did not converge");
+    // Split every patch by the midpoints on its edges (one, two or three: its own longest edge and
+    // its neighbours'); a settled one keeps its mark (a part of a settled patch is settled the same
+    // way), a divided one's pieces are classified again.
     std::vector<Patch> next;
     std::vector<char> next_todo;
     next.reserve(patches.size() * 2);

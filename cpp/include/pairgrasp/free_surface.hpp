@@ -87,8 +87,9 @@ struct FreeSurface {
 /// - the support plane: exactly, from the corners' heights (linear over a face); divided: occluded;
 /// - viewpoints: the sample points; divided: free (one of them is seen).
 /// A face wholly occluded by one mark is occluded; a divided face longer than `resolution` is
-/// split (all three edges at their midpoints, each neighbour splitting the shared edge too) and its
-/// pieces classified again. So every point more than `distance + resolution` from an occluder or
+/// bisected at its longest edge's midpoint (the neighbour splitting the shared edge too, so the
+/// pieces grow with the length of a mark's boundary, not with the area of the faces it crosses) and
+/// its pieces classified again. So every point more than `distance + resolution` from an occluder or
 /// the support is free (paint and viewpoints permitting), and every point within `distance` of one
 /// is occluded. Deterministic; uses `threads` (0: every core).
 ///
