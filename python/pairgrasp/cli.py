@@ -450,7 +450,7 @@ def build_parser() -> argparse.ArgumentParser:
                       "move the object, as planned)")
     plan.add_argument("--verify", choices=["trials", "lift"], default="trials",
                       help="what --verify-top simulates: every trial of the whole procedure (default), or the "
-                      "closing and the lift alone, about a sixth of one trial")
+                      "closing and the lift alone, 0.85 s of simulated time, a seventh of one trial")
     plan.add_argument("--trials", type=_count(1), default=4, help="trials per verified grasp (default 4)")
     plan.set_defaults(func=_cmd_plan)
     figs = sub.add_parser("figures", help="plan, then draw the paper's Figures 7 and 8 as PNG files")

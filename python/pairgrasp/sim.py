@@ -978,7 +978,7 @@ def verify_grasps(path, top: int, trials: int = 4, seed: int = 0, progress=None,
       grasps are re-ranked by their success rate, each gets its ``simulation``.
     - ``"lift"``: the grasp as planned, without errors, through the closing and the lift only
       (:meth:`Simulator.simulate` ``until=turn_time``: gravity fades in while the table recedes), about
-      a sixth of one trial; the grasps are re-ranked by how far the object moved, the closing's
+      a seventh of one trial; the grasps are re-ranked by how far the object moved, the closing's
       translation of its centre of mass relative to the palm plus the lift's largest, least first.
       Each gets ``lift_check``: ``{"moved", "closing_translation", "lift_translation" (m),
       "outcome", "contact_links", "wall_time" (s)}``. ``trials`` and ``seed`` are not used.
