@@ -503,15 +503,17 @@ def test_plan_verify_top_simulates_and_reranks(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(grasps_file, "write_grasps", lambda *a: (io.__setitem__("write", io["write"] + 1), write(*a))[1])
     monkeypatch.setattr(grasps_file, "load_grasps", lambda *a, **k: (io.__setitem__("read", io["read"] + 1),
                                                                     read(*a, **k))[1])
+    def plan(out, *options):   # the jaw on the box: the command's output and the grasps.json it wrote
+        code = cli.main([str(a) for a in ("plan", "--hand", JAW, "--target", BOX, "--edge", "0.008", "--seed", "1",
+                                          "--quiet", *options, "-o", out)])
+        r = capsys.readouterr()
+        assert code == 0, r.err
+        return r, json.loads((out / "grasps.json").read_text())
+
     out = tmp_path / "plan"
-    code = cli.main([str(a) for a in (
-        "plan", "--hand", JAW, "--target", BOX, "--paint", MODELS / "targets" / "box.paint.json", "--edge",
-        "0.008", "--top", "3", "--seed", "1", "--pictures", "1", "--verify-top", "2", "--trials", "2", "--quiet",
-        "-o", out)])
-    r = capsys.readouterr()
-    assert code == 0, r.err
+    paint = ("--paint", MODELS / "targets" / "box.paint.json")
+    r, doc = plan(out, *paint, "--top", "3", "--pictures", "1", "--verify-top", "2", "--trials", "2")
     assert io == {"write": 1, "read": 0}
-    doc = json.loads((out / "grasps.json").read_text())
     g = doc["grasps"]
     assert [x["rank"] for x in g] == list(range(1, len(g) + 1))
     assert doc["verification"]["top"] == 2 and doc["verification"]["trials"] == 2
@@ -522,25 +524,14 @@ def test_plan_verify_top_simulates_and_reranks(tmp_path, monkeypatch, capsys):
     assert doc["inputs"]["hand_spec"] == str(JAW) and doc["pictures"] == ["grasp_01.png"]
     assert "held" in r.out.splitlines()[1]
     # --verify lift: the cheap check, its column, its record; --verify alone is refused
-    code = cli.main([str(a) for a in (
-        "plan", "--hand", JAW, "--target", BOX, "--paint", MODELS / "targets" / "box.paint.json", "--edge",
-        "0.008", "--top", "3", "--seed", "1", "--pictures", "0", "--verify-top", "3", "--verify", "lift", "--quiet",
-        "-o", out)])
-    r = capsys.readouterr()
-    assert code == 0, r.err
-    doc = json.loads((out / "grasps.json").read_text())
+    r, doc = plan(out, *paint, "--top", "3", "--pictures", "0", "--verify-top", "3", "--verify", "lift")
     assert doc["verification"]["check"] == "lift" and "trials" not in doc["verification"]
     moved = [x["lift_check"]["moved"] for x in doc["grasps"]]
     assert moved == sorted(moved) and all("simulation" not in x for x in doc["grasps"])
     assert "moved" in r.out.splitlines()[1] and " mm (planned " in r.out
     # on a table: the planner splits the box's 12 faces where the table covers them, and the check
     # simulates the file's target (inputs.target) with the table under it
-    code = cli.main([str(a) for a in (
-        "plan", "--hand", JAW, "--target", BOX, "--support", "--edge", "0.008", "--top", "2", "--seed", "1",
-        "--pictures", "0", "--verify-top", "2", "--verify", "lift", "--quiet", "-o", tmp_path / "table")])
-    r = capsys.readouterr()
-    assert code == 0, r.err
-    doc = json.loads((tmp_path / "table" / "grasps.json").read_text())
+    r, doc = plan(tmp_path / "table", "--support", "--top", "2", "--pictures", "0", "--verify-top", "2", "--verify", "lift")
     assert doc["inputs"]["support"] and doc["inputs"]["free_surface"]["faces"] > doc["inputs"]["target_faces"] == 12
     assert doc["verification"]["check"] == "lift" and all("lift_check" in g for g in doc["grasps"][:2])
     code = cli.main([str(a) for a in ("plan", "--hand", JAW, "--target", BOX, "--verify", "lift", "-o", tmp_path / "x")])
