@@ -1,7 +1,7 @@
 """Held-out evaluation: do the planned grasps hold on objects nobody tuned on?
 
     python bench/bench_holdout.py -o OUT --split test [--hands barrett,parallel_jaw] [--modes free,support]
-        [--pool 10] [--trials 4] [--jobs 2] [--limit N] [--markdown FILE]
+        [--pool 10] [--trials 4] [--jobs 2] [--limit N] [--markdown FILE] [--plan-args "--verify-top 5 --verify lift"]
     python bench/bench_holdout.py -o OUT --table            # the tables again, from OUT/runs.jsonl
     python bench/bench_holdout.py -o OUT2 --plans-from OUT  # the same plans simulated again
 
@@ -22,7 +22,8 @@ force-closure grasp counts 0):
   load that was on when the object left the thresholds; see docs/physics.md);
 - pool rules: the rank-1 held rate had rank 1 been chosen within the same plan's grasps by another
   rule (the search's epsilon, load resistance, links in contact, opposition of the fingers'
-  pushes), with the change against the default's rank 1 on the same objects (paired bootstrap
+  pushes; with ``--plan-args "--verify-top K ..."``, the plan's order before the simulation re-ranked
+  it), with the change against the default's rank 1 on the same objects (paired bootstrap
   interval), and the best grasp of the pool (what a perfect ranking of these grasps would reach).
   Rules are compared on the dev half; the test half only reports.
 
