@@ -20,6 +20,7 @@ import numpy as np
 
 from . import _core
 from .params import PlanParams
+from .sim import VERIFY_CHECKS
 from .workflow import finish_outdir, planner_from_files, write_plan
 
 
@@ -106,7 +107,7 @@ def _cmd_plan(args) -> int:
     out = args.output
     if os.path.exists(out) and not os.path.isdir(out):
         raise ValueError(f"-o: {out} exists and is not a directory")
-    if args.verify != "trials" and not args.verify_top:
+    if args.verify != VERIFY_CHECKS[0] and not args.verify_top:
         raise ValueError("--verify: only with --verify-top K")
     if args.verify_top:
         from .sim import import_mujoco
@@ -448,7 +449,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="simulate the K best grasps in MuJoCo (needs .[sim]) and re-rank them by how often they "
                       "held over --trials perturbed trials (--verify lift: how little the closing and the lift "
                       "move the object, as planned)")
-    plan.add_argument("--verify", choices=["trials", "lift"], default="trials",
+    plan.add_argument("--verify", choices=VERIFY_CHECKS, default=VERIFY_CHECKS[0],
                       help="what --verify-top simulates: every trial of the whole procedure (default), or the "
                       "closing and the lift alone, 0.85 s of simulated time, a seventh of one trial")
     plan.add_argument("--trials", type=_count(1), default=4, help="trials per verified grasp (default 4)")

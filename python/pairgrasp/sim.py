@@ -997,11 +997,11 @@ def verify_grasps(path, top: int, trials: int = 4, seed: int = 0, progress=None,
         raise ValueError(f"check: expected one of {', '.join(VERIFY_CHECKS)}, got {check!r}")
     import_mujoco()
     noise = kwargs.pop("noise", None)
-    perturbations = trial_perturbations(trials, seed, noise)
     planned = load_planned(path, hand, target, document=document)
     doc = planned.grasps.document
     items = doc["grasps"]
     if check == "trials":
+        perturbations = trial_perturbations(trials, seed, noise)
         rep = _simulate_planned(planned, path, top, kwargs.pop("params", None), progress, perturbations, seed,
                                 noise, kwargs.pop("mass", None), kwargs)
         n = len(rep.trials)
