@@ -87,15 +87,15 @@ def _planner_from_args(args):
 def _table(grasps, verified=None) -> str:
     """The grasps as printed by plan; ``verified``: (column name, {planned rank: text}) of verified
     grasps."""
-    name, held = verified if verified else ("", {})
+    name, cells = verified if verified else ("", {})
     robust = any(g.force_closure_probability is not None for g in grasps)
     load = any(g.load_resistance is not None for g in grasps)
     rows = [f"{'rank':>4s}  {'epsilon':>8s}  {'fc':>3s}" + ("   load" if load else "") + ("  P(fc)  eps_q25" if robust else "") +
-            f"  {'Q_A':>8s}  {'votes':>5s}  {'penetration':>11s}  contacts" + (f"  {name}" if held else "")]
+            f"  {'Q_A':>8s}  {'votes':>5s}  {'penetration':>11s}  contacts" + (f"  {name}" if cells else "")]
     for rank, g in enumerate(grasps, start=1):
         r = (f"  {g.force_closure_probability:5.2f}  {g.robust_epsilon:7.4f}" if g.force_closure_probability is not None
              else "      -        -") if robust else ""
-        h = (f"  {held[g.rank]} (planned {g.rank})" if g.rank in held else "") if held else ""
+        h = f"  {cells[g.rank]} (planned {g.rank})" if g.rank in cells else ""
         lr = (f"  {g.load_resistance:5.3f}" if g.load_resistance is not None else "      -") if load else ""
         rows.append(f"{rank:>4d}  {g.epsilon:>8.4f}  {'yes' if g.force_closure else 'no':>3s}{lr}{r}  "
                     f"{g.alignment_quality:>8.3f}  {g.votes:>5d}  {1000 * g.penetration_depth:>8.2f} mm  "
