@@ -203,7 +203,8 @@ std::string mm(double metres) {
 }  // namespace
 
 GraspChecker::Impl::Impl(const Hand& hand_in, const Mesh& target_in, const Mask& free_in,
-                         const std::vector<Obstacle>& obstacles_in, const CheckOptions& options_in)
+                         const std::vector<Obstacle>& obstacles_in, const CheckOptions& options_in,
+                         const Mesh* geometry)
     : hand(hand_in), target(target_in), obstacles(obstacles_in), options(options_in) {
   check_option("depth_tolerance", options.depth_tolerance, false);
   check_option("contact_gap", options.contact_gap, false);
@@ -254,7 +255,8 @@ GraspChecker::Impl::Impl(const Hand& hand_in, const Mesh& target_in, const Mask&
     vd::SceneModel& S = scene[0];
     S.name = "target";
     S.mesh = &target;
-    S.fcl = vd::make_fcl_model(target.vertices, target.faces);
+    const Mesh& g = geometry ? *geometry : target;
+    S.fcl = vd::make_fcl_model(g.vertices, g.faces);
     S.bounds = vd::faces_bounds(target.vertices, target.faces);
     S.query = std::make_unique<SurfaceQuery>(target);
     S.samples = renamed("sample_spacing", [&] { return vd::make_samples(target, sample_spacing); });
@@ -478,6 +480,32 @@ CheckResult GraspChecker::Impl::check_poses(const std::vector<Pose>& poses, bool
 GraspChecker::GraspChecker(const Hand& hand, const Mesh& target, const Mask& free,
                            const std::vector<Obstacle>& obstacles, const CheckOptions& options)
     : impl_(std::make_shared<const Impl>(hand, target, free, obstacles, options)) {}
+
+namespace {
+// `surface` was split from `given`: its source faces index given's faces and both span one box.
+const Mesh& split_from(const FreeSurface& surface, const Mesh& given) {
+  const Eigen::Index F = surface.mesh.faces.rows(), G = given.faces.rows();
+  if (surface.source_faces.size() != F)
+    throw std::invalid_argument("surface: source_faces has " + std::to_string(surface.source_faces.size()) +
+                                " entries for " + std::to_string(F) + " faces");
+  if (F == 0 || G == 0) throw std::invalid_argument("surface: the target has no faces");
+  if (surface.source_faces.minCoeff() < 0 || surface.source_faces.maxCoeff() >= G)
+    throw std::invalid_argument("surface: its source faces index a mesh of more than " + std::to_string(G) +
+                                " faces, not the mesh given ('" + given.source + "')");
+  const Eigen::AlignedBox3d a = vd::faces_bounds(surface.mesh.vertices, surface.mesh.faces);
+  const Eigen::AlignedBox3d b = vd::faces_bounds(given.vertices, given.faces);
+  const double tol = 1e-9 * std::max(1.0, b.diagonal().norm());
+  if (!((a.min() - b.min()).cwiseAbs().maxCoeff() <= tol && (a.max() - b.max()).cwiseAbs().maxCoeff() <= tol))
+    throw std::invalid_argument("surface: it spans another box than the mesh given ('" + given.source +
+                                "'): not split from it");
+  return given;
+}
+}  // namespace
+
+GraspChecker::GraspChecker(const Hand& hand, const FreeSurface& surface, const Mesh& given,
+                           const std::vector<Obstacle>& obstacles, const CheckOptions& options)
+    : impl_(std::make_shared<const Impl>(hand, surface.mesh, surface.free, obstacles, options,
+                                         &split_from(surface, given))) {}
 
 CheckResult GraspChecker::check(const Pose& wrist, const Eigen::VectorXd& dofs, bool exact_depth) const {
   return impl_->check_poses(impl_->target_frame_poses(wrist, dofs), exact_depth);

@@ -142,8 +142,9 @@ void GraspChecker::Impl::build_fields() {
     if (task < L_n) {
       build_link_field(links[task], cell, band);
     } else if (task == L_n) {
+      // Signed for a closed target; for an open one unsigned, which bounds clearances only
+      // (field_pair() and the contacts then take the exact queries).
       vd::SceneModel& T = scene[0];
-      if (!T.query->closed()) return;
       DistanceFieldOptions fo;
       fo.cell = cell;
       fo.band = band;
@@ -418,7 +419,7 @@ vd::DepthBounds deepest(const Source* sources, int count, Sd&& sd, Refine&& refi
 vd::PairCheck GraspChecker::Impl::field_pair(int l, const Pose& pose, int s, double stop, bool intersection) const {
   const vd::LinkModel& L = links[l];
   const vd::SceneModel& S = scene[s];
-  if (!S.field || L.surface.empty()) return check_pair(l, pose, s, stop);
+  if (!S.field || !S.field->is_signed() || L.surface.empty()) return check_pair(l, pose, s, stop);
   vd::PairCheck r;
   if (!vd::boxes_within(vd::transform_box(L.bounds, pose), S.bounds, options.contact_gap)) return r;
   r.near = true;

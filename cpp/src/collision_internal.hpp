@@ -177,8 +177,10 @@ struct GraspChecker::Impl {
   /// Links (indices into links) whose pose changes with each DOF.
   std::vector<std::vector<int>> dof_links;
 
+  /// `geometry`: the mesh the target's FCL model is built from, the same surface as `target` in
+  /// other faces (null: `target` itself).
   Impl(const Hand& hand, const Mesh& target, const Mask& free, const std::vector<Obstacle>& obstacles,
-       const CheckOptions& options);
+       const CheckOptions& options, const Mesh* geometry = nullptr);
 
   /// One link (index l, pose in the target frame) against scene model s. The depth searches stop
   /// once a depth beyond `stop` (m) is found (a lower bound then).

@@ -387,7 +387,7 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& sce
       if (k == 0) {
         index.emplace(build_target_index(target, setup.edge, index_free, io));
       } else {
-        checker = std::make_unique<GraspChecker>(hand, target, free, obstacles, co);
+        checker = std::make_unique<GraspChecker>(hand, surface, given, obstacles, co);
       }
     } catch (...) {
       errors[k] = std::current_exception();

@@ -3,8 +3,10 @@
 // and with a table under the target, every decision is the same (the checks' and the per-link
 // states settling uses) and depths agree within the field's bound. Most poses put a random point of a random link within a few millimetres of a
 // random target surface point (links straddling the surface), the rest anywhere near the target.
-// Closing and contacts are compared the same way.
+// Closing and contacts are compared the same way. An open target's unsigned field, and a split
+// target checked with the geometry of the mesh as given, decide as the exact path does.
 #include <pairgrasp/collision.hpp>
+#include <pairgrasp/free_surface.hpp>
 #include <pairgrasp/grasp.hpp>
 #include <pairgrasp/paint.hpp>
 
@@ -300,4 +302,111 @@ TEST(CollisionField, ConvexAndNonConvexLinksAndTheFieldSize) {
   EXPECT_THROW(GraspChecker(Hand::load(model("parallel_jaw/parallel_jaw.json")), target, Mask(), {},
                             [] { CheckOptions o; o.field_cell = 0.0; return o; }()),
                std::invalid_argument);
+}
+
+namespace {
+
+// The target less the faces whose centroid lies in its top tenth: an open mesh (a cup without
+// its lid), whose field is unsigned.
+Mesh without_top(const Mesh& m) {
+  const double cut = m.bounds.max().z() - 0.1 * m.bounds.sizes().z();
+  std::vector<int> keep;
+  for (int f = 0; f < m.faces.rows(); ++f) {
+    double z = 0.0;
+    for (int k = 0; k < 3; ++k) z += m.vertices(m.faces(f, k), 2) / 3.0;
+    if (z < cut) keep.push_back(f);
+  }
+  Triangles t(static_cast<Eigen::Index>(keep.size()), 3);
+  for (std::size_t i = 0; i < keep.size(); ++i) t.row(static_cast<Eigen::Index>(i)) = m.faces.row(keep[i]);
+  return make_mesh(m.vertices, t, m.source + " without its top");
+}
+
+}  // namespace
+
+// An open target has an unsigned field, which bounds clearances (closing) but decides nothing
+// that needs a side: the checks equal the exact path's, and every clearance is the exact distance
+// or a lower bound beyond the threshold asked about.
+TEST(CollisionField, AnOpenTargetsUnsignedFieldBoundsClearancesOnly) {
+  const Hand hand = Hand::load(model("barrett/barrett.json"));
+  int compared = 0, bounds = 0;
+  std::uint64_t seed = 400;
+  for (const char* name : {"mug", "flask"}) {
+    SCOPED_TRACE(name);
+    const Mesh target = without_top(load_mesh(model(std::string("targets/") + name + ".stl")));
+    ASSERT_FALSE(target.closed);
+    const GraspChecker exact(hand, target, Mask(), {}, with_field(false));
+    const GraspChecker field(hand, target, Mask(), {}, with_field(true));
+    const detail::CheckerAccess::Impl& I = detail::CheckerAccess::impl(field);
+    ASSERT_TRUE(I.scene[0].field);
+    EXPECT_FALSE(I.scene[0].field->is_signed());
+    const Poses p = random_poses(hand, target, testing_scale::cases(48), seed++, field);
+    Tally t;
+    compare(exact, field, p, true, t);
+    EXPECT_EQ(t.differing, 0);
+    for (std::size_t k = 0; k < p.wrists.size(); ++k) {
+      const std::vector<Pose> poses = I.target_frame_poses(p.wrists[k], p.dofs[k]);
+      for (std::size_t l = 0; l < poses.size(); ++l) {
+        const double truth = I.link_distance(static_cast<int>(l), poses[l], false);
+        for (double above : {0.0005, 0.002, 0.01}) {
+          bool exact_value = false;
+          const double d = I.link_clearance(static_cast<int>(l), poses[l], false, above, &exact_value);
+          ++compared;
+          if (exact_value) {
+            EXPECT_EQ(d, truth);
+          } else {
+            ++bounds;
+            EXPECT_GT(d, above);
+            EXPECT_LE(d, truth + 1e-12);
+          }
+        }
+      }
+    }
+  }
+  std::printf("%d clearances on open targets, %d lower bounds\n", compared, bounds);
+  EXPECT_GT(bounds, compared / 4);
+}
+
+// A target split by free_surface() (resting on a plane: its faces divided along the covered
+// strip) checked with the FCL model of the mesh as given decides as the split mesh itself does,
+// and measures the same distances: the same surface in fewer faces.
+TEST(CollisionField, ASplitTargetCheckedWithTheGivenGeometryDecidesAsTheSplitMesh) {
+  const Hand hand = Hand::load(model("barrett/barrett.json"));
+  std::uint64_t seed = 500;
+  int distances = 0;
+  for (const char* name : {"box", "mug", "flask"}) {
+    SCOPED_TRACE(name);
+    const Mesh given = load_mesh(model(std::string("targets/") + name + ".stl"));
+    Occlusion o;
+    o.support = SupportPlane::below(given);
+    const FreeSurface surface = free_surface(given, o, 0.0025);
+    ASSERT_GT(surface.split_faces, 0);
+    ASSERT_GT(surface.mesh.faces.rows(), given.faces.rows());
+    const std::vector<Obstacle> table = {{"support", support_box(*o.support, given, 0.05)}};
+    for (bool on : {false, true}) {
+      const GraspChecker split(hand, surface.mesh, surface.free, table, with_field(on));
+      const GraspChecker coarse(hand, surface, given, table, with_field(on));
+      const Poses p = random_poses(hand, surface.mesh, testing_scale::cases(48), seed++, split);
+      Tally t;
+      compare(split, coarse, p, true, t);
+      EXPECT_EQ(t.differing, 0);
+      const detail::CheckerAccess::Impl &A = detail::CheckerAccess::impl(split), &B = detail::CheckerAccess::impl(coarse);
+      for (std::size_t k = 0; k < p.wrists.size(); ++k) {
+        const std::vector<Pose> poses = A.target_frame_poses(p.wrists[k], p.dofs[k]);
+        for (std::size_t l = 0; l < poses.size(); ++l, ++distances)
+          EXPECT_NEAR(A.link_distance(static_cast<int>(l), poses[l], false),
+                      B.link_distance(static_cast<int>(l), poses[l], false), 1e-9);
+      }
+    }
+    // Not split from this mesh: refused, naming the argument.
+    const Mesh other = load_mesh(model("targets/mug.stl"));
+    if (std::string(name) != "mug") {
+      try {
+        GraspChecker(hand, surface, other, table);
+        ADD_FAILURE() << "a surface split from another mesh was accepted";
+      } catch (const std::invalid_argument& e) {
+        EXPECT_EQ(std::string(e.what()).rfind("surface: ", 0), 0u) << e.what();
+      }
+    }
+  }
+  std::printf("%d link distances compared\n", distances);
 }
