@@ -12,7 +12,9 @@ hand size, split into dev and test), each hand and each mode:
 - ``mesh``: the same object with a table box (``max(0.6, 3 x)`` by ``max(0.6, 3 y)`` by 0.02 m, its
   top at z = 0) passed as both ``--obstacle`` (the hand must not touch it) and ``--occluder`` (the
   faces on it are not free);
-- ``free``: the object free-floating, no table.
+- ``free``: the object free-floating, no table;
+- ``rest``: the object in the resting pose the table modes plan, no table (not run by default): what
+  the table alone costs, the pose being the same.
 
 Each plan is ``pairgrasp plan --top 5 --seed 1 --pictures 0``; when it kept a force-closure grasp,
 ``pairgrasp simulate --top 1 --trials 4 --seed 1`` checks the top grasp in MuJoCo (the table the plan
@@ -32,7 +34,8 @@ those objects against the heights of the objects that were grasped, and against 
 At the end it prints (``--markdown FILE`` also writes) per hand and mode: objects with a
 force-closure grasp, mean top-1 success rate over objects (an object without a grasp counts 0) with
 a 95% bootstrap interval, median plan time, the ratio of table to free-floating plan time of the
-same object, the same for the objects taller than 5 cm at rest, and one row per run. A second table
+same object (and, when ``rest`` ran, to its plan in the same pose without the table), the same for
+the objects taller than 5 cm at rest, and one row per run. A second table
 says where the plan time goes: median and largest plan time, plans over 3 s, the median of each stage
 (``timings`` of grasps.json, from the plan whose total is the median), the median stored pairs and the
 plan process's peak resident memory (``ru_maxrss``); ``--stages`` adds one such row per plan. The
@@ -100,7 +103,8 @@ def propose_third_party(name, out):
         json.dump(pg.propose_spec(os.path.join(root, model), wrist, name=name), f, indent=2)
     HANDS[name] = path
     return path
-MODES = ("support", "mesh", "free")
+MODES = ("support", "mesh", "free", "rest")
+DEFAULT_MODES = ("support", "mesh", "free")
 TABLE_MODES = ("support", "mesh")
 TALL = 0.05            # m: the "taller than 5 cm at rest" subset
 BOOTSTRAP = 10000
@@ -283,9 +287,18 @@ def held_value(r):
 def summarize(runs, hands, modes):
     by_key = {(r["object"], r["hand"], r["mode"]): r for r in runs}
     lines = ["| hand | mode | objects | with a force-closure grasp | mean top-1 held [95% CI] | median plan (s) "
-             "| table / free plan time, median (max) | taller than 5 cm: grasped | taller than 5 cm: mean held [95% CI] |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "| table / free plan time, median (max) | table / rest plan time, median (max) | taller than 5 cm: grasped | taller than 5 cm: mean held [95% CI] |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     notes = []
+
+    def ratios_to(rs, hand, other):
+        out = []
+        for r in rs:
+            o = by_key.get((r["object"], hand, other))
+            if o and o["plan_time"] and r["plan_time"] is not None:
+                out.append(r["plan_time"] / o["plan_time"])
+        return f"{statistics.median(out):.2f} ({max(out):.2f}), n = {len(out)}" if out else "–"
+
     for hand in hands:
         for mode in modes:
             rs = [r for r in runs if r["hand"] == hand and r["mode"] == mode]
@@ -294,20 +307,14 @@ def summarize(runs, hands, modes):
             ok = [r for r in rs if r["fc_grasps"] > 0]
             m, lo, hi = bootstrap_mean([held_value(r) for r in rs])
             times = [r["plan_time"] for r in rs if r["plan_time"] is not None]
-            ratio = "–"
-            if mode != "free":
-                ratios = []
-                for r in rs:
-                    f = by_key.get((r["object"], hand, "free"))
-                    if f and f["plan_time"] and r["plan_time"] is not None:
-                        ratios.append(r["plan_time"] / f["plan_time"])
-                if ratios:
-                    ratio = f"{statistics.median(ratios):.2f} ({max(ratios):.2f}), n = {len(ratios)}"
+            table = mode in TABLE_MODES
+            ratio = ratios_to(rs, hand, "free") if table else "–"
+            ratio_rest = ratios_to(rs, hand, "rest") if table else "–"
             tall = [r for r in rs if r["height"] > TALL]
             tm, tlo, thi = bootstrap_mean([held_value(r) for r in tall])
             lines.append(
                 f"| {hand} | {mode} | {len(rs)} | {len(ok)} | {_fmt(m)} [{_fmt(lo)}, {_fmt(hi)}] "
-                f"| {_fmt(statistics.median(times) if times else None)} | {ratio} "
+                f"| {_fmt(statistics.median(times) if times else None)} | {ratio} | {ratio_rest} "
                 f"| {sum(r['fc_grasps'] > 0 for r in tall)} / {len(tall)} | {_fmt(tm)} [{_fmt(tlo)}, {_fmt(thi)}] |")
             sim_errors = [r for r in rs if r.get("sim_error")]
             if sim_errors:
@@ -439,7 +446,7 @@ def main(argv=None):
     ap.add_argument("--split", choices=["test", "dev", "all"], default="test")
     ap.add_argument("--limit", type=int, default=None, help="the first N objects of the split")
     ap.add_argument("--hands", default="barrett,parallel_jaw")
-    ap.add_argument("--modes", default=",".join(MODES))
+    ap.add_argument("--modes", default=",".join(DEFAULT_MODES), help=f"of {', '.join(MODES)}")
     ap.add_argument("--jobs", type=int, default=1, help="runs at once")
     ap.add_argument("--threads", type=int, default=None, help="threads per plan (default: cores / jobs)")
     ap.add_argument("--repeat", type=int, default=1, help="plans per run; the median timings.total is reported")
