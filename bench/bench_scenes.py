@@ -1,7 +1,7 @@
 """Objects on a table: plan and simulate each object of bench/objects.txt resting on a table, and free.
 
     python bench/bench_scenes.py -o OUT [--split test|dev|all] [--limit N]
-        [--hands barrett,parallel_jaw,panda,pr2_gripper,shadow] [--modes support,mesh,free] [--jobs N] [--threads T]
+        [--hands barrett,parallel_jaw,panda,pr2_gripper,shadow] [--modes support,mesh,free,rest] [--jobs N] [--threads T]
         [--repeat K] [--timeout S] [--no-simulate] [--stages] [--markdown FILE] [--retry-errors]
 
 For each object of the split (bench/objects.py: third-party meshes of ``pybullet_data``, scaled to
