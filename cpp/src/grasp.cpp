@@ -64,16 +64,22 @@ Eigen::VectorXi closing_directions(const Hand& hand, const Eigen::VectorXd& dofs
 
 namespace {
 
-// Largest vertex speed (m per unit of DOF k) of each of the given links at q, moving in direction dir.
-std::vector<double> link_speeds(const Hand& hand, const std::vector<int>& links, const Eigen::VectorXd& q,
-                                Eigen::Index k, int dir, double lo, double hi) {
+// How fast a link moves with DOF k at q: its largest vertex speed (m per unit of the DOF), and
+// whether it turns (a link that only translates moves every point at that speed all along a step).
+struct LinkSpeed {
+  double speed = 0.0;
+  bool turns = true;
+};
+
+std::vector<LinkSpeed> link_speeds(const Hand& hand, const std::vector<int>& links, const Eigen::VectorXd& q,
+                                   Eigen::Index k, int dir, double lo, double hi) {
   const double delta = 1e-6 * (hi - lo);
   Eigen::VectorXd q1 = q;
   double step = dir * delta;
   if (q[k] + step > hi || q[k] + step < lo) step = -step;
   q1[k] += step;
   const std::vector<Pose> p0 = hand.link_poses(q), p1 = hand.link_poses(q1, true);
-  std::vector<double> speeds;
+  std::vector<LinkSpeed> speeds;
   for (int l : links) {
     const Mesh& m = hand.links()[l].mesh;
     const Eigen::Matrix4d dm = p1[l].matrix() - p0[l].matrix();
@@ -82,7 +88,9 @@ std::vector<double> link_speeds(const Hand& hand, const std::vector<int>& links,
       const Vec3 x = m.vertices.row(i).transpose();
       v = std::max(v, (dm.topLeftCorner<3, 3>() * x + dm.topRightCorner<3, 1>()).norm());
     }
-    speeds.push_back(v / std::abs(step));
+    // Turning by 1e-9 of the step or less: round-off of a translation.
+    const bool turns = dm.topLeftCorner<3, 3>().cwiseAbs().maxCoeff() > 1e-9 * std::abs(step);
+    speeds.push_back({v / std::abs(step), turns});
   }
   return speeds;
 }
@@ -190,11 +198,14 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
         break;
       }
       // Each link's own distance over its own speed: a link near the joint moves slower than the
-      // fingertip, so its distance allows a longer step.
-      const std::vector<double> v = link_speeds(hand, moving, q, k, dir, lo[k], hi[k]);
+      // fingertip, so its distance allows a longer step. A turning link's speed changes along the
+      // step (a third is kept in hand); a translating link's does not, so its step ends no nearer
+      // than a quarter of the gap, since its distance is a lower bound.
+      const std::vector<LinkSpeed> v = link_speeds(hand, moving, q, k, dir, lo[k], hi[k]);
       double step = std::numeric_limits<double>::infinity();
       for (std::size_t i = 0; i < moving.size(); ++i)
-        if (v[i] > 0.0) step = std::min(step, (per_link[i] - 0.25 * gap) / (1.5 * v[i]));
+        if (v[i].speed > 0.0)
+          step = std::min(step, (per_link[i] - 0.25 * gap) / ((v[i].turns ? 1.5 : 1.0) * v[i].speed));
       step = std::max(step, min_step);
       Eigen::VectorXd q_new = q;
       q_new[k] = dir > 0 ? std::min(q[k] + step, limit) : std::max(q[k] - step, limit);
