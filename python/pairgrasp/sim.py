@@ -996,18 +996,17 @@ def verify_grasps(path, top: int, trials: int = 4, seed: int = 0, progress=None,
     if check not in VERIFY_CHECKS:
         raise ValueError(f"check: expected one of {', '.join(VERIFY_CHECKS)}, got {check!r}")
     import_mujoco()
-    noise = kwargs.pop("noise", None)
+    noise, params, mass = kwargs.pop("noise", None), kwargs.pop("params", None), kwargs.pop("mass", None)
     planned = load_planned(path, hand, target, document=document)
     doc = planned.grasps.document
     items = doc["grasps"]
     if check == "trials":
         perturbations = trial_perturbations(trials, seed, noise)
-        rep = _simulate_planned(planned, path, top, kwargs.pop("params", None), progress, perturbations, seed,
-                                noise, kwargs.pop("mass", None), kwargs)
+        rep = _simulate_planned(planned, path, top, params, progress, perturbations, seed, noise, mass, kwargs)
         n = len(rep.trials)
         key = [-x for x in rep.success_rates]
     else:
-        sim = _planned_scene(planned, path, kwargs.pop("params", None), kwargs.pop("mass", None), kwargs)
+        sim = _planned_scene(planned, path, params, mass, kwargs)
         grasps = planned.grasps.grasps[:top]
         n, key = len(grasps), []
         for k, (g, item) in enumerate(zip(grasps, items)):
