@@ -5,9 +5,15 @@ The proposal (:func:`propose_spec`) reads the hand as the planner will (the wris
 through :func:`pairgrasp.load_hand`) and derives:
 
 * **DOFs**: one per moving joint that is not a ``<mimic>`` (mimics follow their master), over the
-  joint's URDF limits, with the planner's default step. A coupling the URDF does not state (the
-  Barrett spread turns two knuckles through one motor) is one edit away: merge the two DOFs into
-  one with a ``ratio`` per joint.
+  joint's URDF limits, each turning DOF stepped by the planner's default 0.25 rad or an eighth of
+  its range if less (a slide's default step is an eighth of its range already); except that two joints that mirror each
+  other are one DOF (``<first>+<second>``, the second with ratio 1 or -1). Mirrored joints hang from
+  the same link, are of the same type, have the same limits (ratio 1) or opposite ones (ratio -1),
+  and, swept together over their range with the other joints at mid-range, move their child links
+  (or, for a child without geometry, all that they carry) as mirror images: equal areas, and
+  centroids mirrored through one plane that contains the approach, or turned half a turn about
+  one line along it (the same finger mesh turned over): the Barrett spread's two knuckles (one motor, two URDF joints), a
+  two-finger gripper whose URDF states no ``<mimic>``.
 * **Approach**: from the wrist link's centroid towards the centroid of the links that move, at
   mid-range, rounded to a frame axis when within 10 degrees of one.
 * **Active surfaces**: the links a *closing* joint moves (a joint whose axis, in the wrist frame at
@@ -44,6 +50,10 @@ _LEADING_COS = math.cos(math.radians(60.0))        # a face moving within this o
 _SNAP_COS = math.cos(math.radians(10.0))           # an approach this near a frame axis becomes that axis
 _PALM_CONE_DEG = 10.0
 _FLEX_COS = math.cos(math.radians(30.0))           # a joint this near parallel to its finger's tip joint flexes it
+_REVOLUTE_STEP = 0.25                              # rad: the planner's default step of a turning DOF
+_STEPS_PER_RANGE = 8                               # ... at most an eighth of its range (a short finger's)
+_MIRROR_TOL = 1e-4                                 # of the hand's size: mirrored centroids agree within this
+_MIRROR_AREA = 0.02                                # mirrored joints carry areas within this fraction
 MAX_DOFS = 4                                       # synergies proposed for a hand of many joints, at most
 SYNERGIES_ABOVE = 5                                # independent joints; the Barrett hand's five stay one DOF each
 
@@ -240,8 +250,79 @@ def propose_spec(urdf: str, wrist: str, package_paths: Sequence[str] = (), name:
             "active_surfaces": surfaces}
     if len(driven) > SYNERGIES_ABOVE:
         spec["dofs"] = _synergies(_load(spec, paths), driven, wrist, urdf, approach)
+    else:
+        spec["dofs"] = _mirror_couplings(hand, driven, joints, approach, moved)
     _load(spec, paths)      # the proposal loads as it is written
     return spec
+
+
+def _mirror_couplings(hand, driven: List[str], joints: dict, approach: np.ndarray, moved: Dict[str, set]) -> List[dict]:
+    """The DOFs of the proposal with joints that mirror each other merged (the module's docs);
+    ``hand`` has one DOF per driven joint, named after it."""
+    from . import _core
+
+    lo, hi = np.asarray(hand.dof_lower, float), np.asarray(hand.dof_upper, float)
+    mid = (lo + hi) / 2
+    index = {n: d for d, n in enumerate(hand.dof_names)}
+    at_mid = _world_meshes(hand, mid)
+    size = max(float(np.ptp(np.concatenate([m["centroids"] for m in at_mid.values()]), axis=0).max()), 1e-9)
+
+    def carried(meshes, links):               # (area-weighted centroid, area) of the links' faces
+        area = sum(float(meshes[n]["areas"].sum()) for n in links)
+        c = sum((meshes[n]["centroids"] * meshes[n]["areas"][:, None]).sum(axis=0) for n in links)
+        return c / max(area, 1e-300), area
+
+    def mirrors(a: str, b: str, s: float) -> bool:
+        ja, jb = joints[a], joints[b]
+        if ja.parent_link != jb.parent_link or ja.type != jb.type:
+            return False
+        da, db = index[a], index[b]
+        la, lb = moved[a], moved[b]
+        if not la or not lb or la & lb:
+            return False
+        if ja.child_link in la and jb.child_link in lb:    # the links the joints turn or slide themselves
+            la, lb = {ja.child_link}, {jb.child_link}
+        want = (lo[da], hi[da]) if s > 0 else (-hi[da], -lo[da])
+        if not np.allclose((lo[db], hi[db]), want, rtol=1e-9, atol=1e-9):
+            return False
+        normal = origin = None
+        mirrored = turned = True                # through the plane; half a turn about the approach
+        for t in np.linspace(lo[da], hi[da], 5):
+            q = mid.copy()
+            q[da], q[db] = t, s * t
+            m = _world_meshes(hand, q)
+            (ca, area_a), (cb, area_b) = carried(m, la), carried(m, lb)
+            if abs(area_a - area_b) > _MIRROR_AREA * max(area_a, area_b):
+                return False
+            if normal is None:            # the plane: the perpendicular bisector at the first value
+                gap = ca - cb
+                if np.linalg.norm(gap) < _MIRROR_TOL * size:
+                    return False
+                normal, origin = gap / np.linalg.norm(gap), (ca + cb) / 2
+                if abs(float(normal @ approach)) > 0.05:
+                    return False
+            u = ca - origin
+            mirrored &= bool(np.linalg.norm(ca - 2 * float(u @ normal) * normal - cb) <= _MIRROR_TOL * size)
+            turned &= bool(np.linalg.norm(origin + 2 * float(u @ approach) * approach - u - cb) <= _MIRROR_TOL * size)
+            if not (mirrored or turned):
+                return False
+        return True
+
+    dofs, taken = [], set()
+    for i, a in enumerate(driven):
+        if a in taken:
+            continue
+        dof = {"name": a, "joints": [{"joint": a}]}
+        for b in driven[i + 1:]:
+            s = next((s for s in (1.0, -1.0) if b not in taken and mirrors(a, b, s)), None)
+            if s is not None:
+                dof = {"name": f"{a}+{b}", "joints": [{"joint": a}, {"joint": b, "ratio": s}]}
+                taken.add(b)
+                break
+        if joints[a].type != _core.JointType.prismatic:     # a slide's default step is already an eighth of its range
+            dof["step"] = _r(min(_REVOLUTE_STEP, (hi[index[a]] - lo[index[a]]) / _STEPS_PER_RANGE))
+        dofs.append(dof)
+    return dofs
 
 
 def _synergies(hand, driven: List[str], wrist: str, urdf: str, approach: np.ndarray) -> List[dict]:
