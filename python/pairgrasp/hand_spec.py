@@ -5,15 +5,15 @@ The proposal (:func:`propose_spec`) reads the hand as the planner will (the wris
 through :func:`pairgrasp.load_hand`) and derives:
 
 * **DOFs**: one per moving joint that is not a ``<mimic>`` (mimics follow their master), over the
-  joint's URDF limits, each turning DOF stepped by the planner's default 0.25 rad or an eighth of
-  its range if less (a slide's default step is an eighth of its range already); except that two joints that mirror each
-  other are one DOF (``<first>+<second>``, the second with ratio 1 or -1). Mirrored joints hang from
-  the same link, are of the same type, have the same limits (ratio 1) or opposite ones (ratio -1),
-  and, swept together over their range with the other joints at mid-range, move their child links
-  (or, for a child without geometry, all that they carry) as mirror images: equal areas, and
-  centroids mirrored through one plane that contains the approach, or turned half a turn about
-  one line along it (the same finger mesh turned over): the Barrett spread's two knuckles (one motor, two URDF joints), a
-  two-finger gripper whose URDF states no ``<mimic>``.
+  joint's URDF limits, a turning DOF stepped by the planner's default 0.25 rad or an eighth of its
+  range if less (a slide's default step is an eighth of its range already). Two joints that mirror
+  each other are one DOF (``<first>+<second>``, the second with ratio 1 or -1): they hang from the
+  same link, are of the same type, have the same limits (ratio 1) or opposite ones (ratio -1), and,
+  swept together over their range with the other joints at mid-range, move their child links (or,
+  for a child without geometry, all that they carry) as mirror images: equal areas, and centroids
+  mirrored through one plane that contains the approach, or turned half a turn about one line along
+  it (one finger mesh turned over). So the Barrett spread's two knuckles (one motor, two URDF
+  joints) are one DOF, as are the fingers of a two-finger gripper whose URDF states no ``<mimic>``.
 * **Approach**: from the wrist link's centroid towards the centroid of the links that move, at
   mid-range, rounded to a frame axis when within 10 degrees of one.
 * **Active surfaces**: the links a *closing* joint moves (a joint whose axis, in the wrist frame at
@@ -319,7 +319,7 @@ def _mirror_couplings(hand, driven: List[str], joints: dict, approach: np.ndarra
                 dof = {"name": f"{a}+{b}", "joints": [{"joint": a}, {"joint": b, "ratio": s}]}
                 taken.add(b)
                 break
-        if joints[a].type != _core.JointType.prismatic:     # a slide's default step is already an eighth of its range
+        if joints[a].type != _core.JointType.prismatic:     # a slide's default step is an eighth of its range
             dof["step"] = _r(min(_REVOLUTE_STEP, (hi[index[a]] - lo[index[a]]) / _STEPS_PER_RANGE))
         dofs.append(dof)
     return dofs

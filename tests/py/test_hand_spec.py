@@ -153,5 +153,6 @@ def test_the_pr2_grippers_two_fingers_are_one_dof_stepped_by_an_eighth_of_their_
     <mimic>. They are one DOF, stepped by an eighth of the range (the default 0.25 rad samples it thrice)."""
     pybullet_data = pytest.importorskip("pybullet_data")
     spec = pg.propose_spec(os.path.join(pybullet_data.getDataPath(), "pr2_gripper.urdf"), "gripper_pole")
+    fingers = [{"joint": "left_gripper_joint"}, {"joint": "right_gripper_joint", "ratio": 1.0}]
     assert spec["dofs"] == [{"name": "left_gripper_joint+right_gripper_joint", "step": pytest.approx(0.548 / 8),
-                             "joints": [{"joint": "left_gripper_joint"}, {"joint": "right_gripper_joint", "ratio": 1.0}]}]
+                             "joints": fingers}]
