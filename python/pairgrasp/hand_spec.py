@@ -251,26 +251,26 @@ def propose_spec(urdf: str, wrist: str, package_paths: Sequence[str] = (), name:
     if len(driven) > SYNERGIES_ABOVE:
         spec["dofs"] = _synergies(_load(spec, paths), driven, wrist, urdf, approach)
     else:
-        spec["dofs"] = _mirror_couplings(hand, driven, joints, approach, moved)
+        spec["dofs"] = _mirror_couplings(hand, driven, joints, approach, moved, at_mid)
     _load(spec, paths)      # the proposal loads as it is written
     return spec
 
 
-def _mirror_couplings(hand, driven: List[str], joints: dict, approach: np.ndarray, moved: Dict[str, set]) -> List[dict]:
+def _mirror_couplings(hand, driven: List[str], joints: dict, approach: np.ndarray, moved: Dict[str, set],
+                      at_mid: dict) -> List[dict]:
     """The DOFs of the proposal with joints that mirror each other merged (the module's docs);
-    ``hand`` has one DOF per driven joint, named after it."""
+    ``hand`` has one DOF per driven joint, named after it, and ``at_mid`` is its _world_meshes at
+    mid-range."""
     from . import _core
 
     lo, hi = np.asarray(hand.dof_lower, float), np.asarray(hand.dof_upper, float)
     mid = (lo + hi) / 2
     index = {n: d for d, n in enumerate(hand.dof_names)}
-    at_mid = _world_meshes(hand, mid)
     size = max(float(np.ptp(np.concatenate([m["centroids"] for m in at_mid.values()]), axis=0).max()), 1e-9)
 
     def carried(meshes, links):               # (area-weighted centroid, area) of the links' faces
-        area = sum(float(meshes[n]["areas"].sum()) for n in links)
-        c = sum((meshes[n]["centroids"] * meshes[n]["areas"][:, None]).sum(axis=0) for n in links)
-        return c / max(area, 1e-300), area
+        faces = {k: np.concatenate([meshes[n][k] for n in sorted(links)]) for k in ("centroids", "areas")}
+        return _centroid(faces), float(faces["areas"].sum())
 
     def mirrors(a: str, b: str, s: float) -> bool:
         ja, jb = joints[a], joints[b]

@@ -135,17 +135,14 @@ def test_fingers_that_mirror_each_other_are_proposed_as_one_dof(tmp_path, kwargs
     if merged:
         assert spec["approach"] == [0.0, 0.0, 1.0]
         assert list(dofs.values()) == [merged]
-        hand = pg.load_hand(str(_write(tmp_path / "spec.json", spec)))
+        path = tmp_path / "spec.json"
+        path.write_text(json.dumps(spec))
+        hand = pg.load_hand(str(path))
         for x in (0.0, 0.01, 0.02):     # both fingers' centres 3 cm + x from the middle
             T = dict(zip([l.name for l in hand.links], np.asarray(hand.link_poses(np.array([x])))))
             assert T["left"][1, 3] == pytest.approx(0.03 + x) and T["right"][1, 3] == pytest.approx(-0.03 - x)
     else:
         assert dofs == {"left_slide": {("left_slide", 1.0)}, "right_slide": {("right_slide", 1.0)}}
-
-
-def _write(path, spec):
-    path.write_text(json.dumps(spec))
-    return path
 
 
 def test_the_pr2_grippers_two_fingers_are_one_dof_stepped_by_an_eighth_of_their_range():
