@@ -127,7 +127,38 @@ def finger_measures(hand, grasp):
     return (-1.0 if worst is None else worst), (-1.0 if drive is None else drive)
 
 
-def measures(hand, grasp) -> dict:
+_CENTERS = {}
+
+
+def target_center(path):
+    """The target's centre of mass (m): the solid's when its mesh is closed, else its convex hull's."""
+    import pairgrasp as pg
+    from pairgrasp.inertia import hull_mass_properties
+
+    if path not in _CENTERS:
+        mesh = pg.load_mesh(path)
+        try:
+            props = pg.mass_properties(mesh, 1000.0)
+        except ValueError:
+            props = hull_mass_properties(np.asarray(mesh.vertices), 1000.0)
+        _CENTERS[path] = np.asarray(props.center_of_mass, float)
+    return _CENTERS[path]
+
+
+def friction_needed(hand, grasp, center):
+    """:func:`pairgrasp.closing_friction` of a planned grasp's recorded contacts (None without a
+    contact a closing DOF moves; 99 when no friction up to 2 balances the fingers)."""
+    import pairgrasp as pg
+
+    contacts = grasp.get("contacts") or []
+    if not contacts:
+        return None
+    mu = pg.closing_friction(hand, grasp["wrist_pose"], grasp["dof"], [c["point"] for c in contacts],
+                             [c["normal"] for c in contacts], [c["link"] for c in contacts], center)
+    return None if np.isnan(mu) else (99.0 if np.isinf(mu) else round(float(mu), 4))
+
+
+def measures(hand, grasp, center=None) -> dict:
     contacts = grasp.get("contacts") or []
     opp, drive = finger_measures(hand, grasp)
     return {"rank": grasp.get("rank"), "planned_rank": grasp.get("planned_rank", grasp.get("rank")),
@@ -138,6 +169,7 @@ def measures(hand, grasp) -> dict:
             "palm": any(c["link"] == hand.wrist_link for c in contacts),
             "opposition": round(grasp["opposition"] if grasp.get("opposition") is not None else opp, 4),
             "drive": round(grasp["drive"] if grasp.get("drive") is not None else drive, 4),
+            "friction_needed": None if center is None else friction_needed(hand, grasp, center),
             "dof": [round(float(v), 4) for v in grasp["dof"]],
             "approach": [round(float(v), 4) for v in np.asarray(grasp["wrist_pose"], float)[:3, :3]
                          @ np.asarray(hand.approach, float)]}
@@ -211,8 +243,9 @@ def one_run(obj, files, hand_name, mode, out, threads, pool, trials, timeout, pl
     with open(gpath) as f:
         doc = json.load(f)
     hand = _hand(hand_name)
+    center = target_center(doc["inputs"]["target"])
     for g in doc["grasps"]:
-        m = measures(hand, g)
+        m = measures(hand, g, center)
         m["ungated"] = peer_hand is not None
         sim = g.get("simulation", {})
         m["held"] = sim.get("success_rate")
@@ -252,6 +285,8 @@ RULES = {
     "opposition and drive >= 0.5 first, then load resistance":
         lambda g: (g["opposition"] >= 0.5 and g["drive"] >= 0.5, g["load_resistance"] or 0.0),
     "no palm contact first, then load resistance": lambda g: (not g["palm"], g["load_resistance"] or 0.0),
+    "least friction needed at the closing, then load resistance":
+        lambda g: (-(99.0 if g.get("friction_needed") is None else g["friction_needed"]), g["load_resistance"] or 0.0),
     "no palm contact, opposition and drive >= 0.5 first, then load resistance":
         lambda g: (not g["palm"] and g["opposition"] >= 0.5 and g["drive"] >= 0.5, g["load_resistance"] or 0.0),
 }
@@ -364,9 +399,10 @@ def refresh(rec, out):
     with open(gpath) as f:
         doc = json.load(f)
     hand = _hand(rec["hand"])
+    center = target_center(doc["inputs"]["target"])
     grasps = []
     for g in doc["grasps"]:
-        m = measures(hand, g)
+        m = measures(hand, g, center)
         m["ungated"] = rec["hand"] in PEERS
         sim = g.get("simulation", {})
         m["held"] = sim.get("success_rate")

@@ -15,6 +15,7 @@ from .grasps_file import GRASPS_FORMAT, GraspsFile, load_grasps, parse_grasps, w
 from .inertia import MassProperties, mass_properties  # noqa: F401,E402
 from .convex import convex_pieces  # noqa: F401,E402
 from .hand_spec import draw_hand, propose_spec  # noqa: F401,E402
+from .equilibrium import closing_friction  # noqa: F401,E402
 from .mjcf import import_hand  # noqa: F401,E402
 from .sim import (SimParams, SimResult, Simulator, Trial, TrialNoise, simulate_grasps, simulate_trials,  # noqa: F401,E402
                   trial_perturbations, verify_grasps, load_phase)
