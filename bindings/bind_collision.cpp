@@ -334,6 +334,26 @@ void bind_collision(pyb::module_& m) {
       "hand"_a, "wrist_pose"_a, "dofs"_a, "contacts"_a,
       "ClosingPush (opposition, drive) of a grasp's contacts (GraspChecker.contacts(wrist_pose, dofs)) at "
       "(wrist_pose, dofs): how squarely each closing DOF pushes into the surface and is pushed back.");
+  m.def(
+      "_closing_friction",
+      [](const Hand& hand, const pyb::object& wrist_pose, const pyb::object& dofs, const pyb::object& points,
+         const pyb::object& normals, const std::vector<int>& links, const pyb::object& center, double mu_max, int edges,
+         double tolerance) {
+        const Pose w = pose_from(wrist_pose, "wrist_pose");
+        const Eigen::VectorXd q = vector_from(dofs, "dofs");
+        Contacts k;
+        k.points = points_from(points, "points");
+        k.normals = points_from(normals, "normals");
+        k.links = links;
+        const Eigen::VectorXd c = vector_from(center, "center");
+        if (c.size() != 3) throw std::invalid_argument("center: expected 3 coordinates, got " + std::to_string(c.size()));
+        ClosingFrictionOptions o;
+        o.mu_max = mu_max, o.edges = edges, o.tolerance = tolerance;
+        pyb::gil_scoped_release release;
+        return closing_friction(hand, w, q, k, Eigen::Vector3d(c), o);
+      },
+      "hand"_a, "wrist_pose"_a, "dofs"_a, "points"_a, "normals"_a, "links"_a, "center"_a, "mu_max"_a, "edges"_a,
+      "tolerance"_a, "closing_friction() of grasp.hpp (see pairgrasp.closing_friction; links index Hand.links).");
 }
 
 }  // namespace pairgrasp::py

@@ -1,40 +1,144 @@
-// closing_push(): how squarely each closing DOF pushes into the surface and is pushed back.
+// closing_push(): how squarely each closing DOF pushes into the surface and is pushed back;
+// closing_friction(): the friction its stall torques need to be balanced at the contacts.
 #include <pairgrasp/grasp.hpp>
+#include <pairgrasp/wrenches.hpp>
+
+#include <Eigen/QR>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <map>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace pairgrasp {
 
 using Vec3 = Eigen::Vector3d;
 
-ClosingPush closing_push(const Hand& hand, const Pose& wrist, const Eigen::VectorXd& dofs, const Contacts& contacts) {
+namespace {
+
+// How one closing DOF moves the contacts: a finite-difference step of the DOF and each contact's
+// displacement (target frame) over it.
+struct DofMotion {
+  Eigen::Index dof = 0;
+  int direction = 0;               // the DOF's closing direction, +1 or -1
+  double step = 0.0;               // the step taken (against the closing direction at a limit)
+  std::vector<Vec3> displacement;  // per contact
+  std::vector<char> moved;         // per contact: beyond round-off (1e-6 of the step)
+};
+
+// The motions of the closing DOFs (closing_directions()), in DOF order.
+std::vector<DofMotion> closing_motions(const Hand& hand, const Pose& wrist, const Eigen::VectorXd& dofs,
+                                       const Contacts& contacts) {
   const Eigen::VectorXi dirs = closing_directions(hand, dofs);  // validates dofs
   const std::vector<Pose> p0 = hand.link_poses(dofs);
   const Eigen::VectorXd lo = hand.dof_lower(), hi = hand.dof_upper();
   const Eigen::Index C = contacts.points.rows();
   const Pose to_wrist = wrist.inverse();
-  double worst = 2.0, least_drive = 2.0;
+  std::vector<DofMotion> out;
   for (Eigen::Index k = 0; k < dofs.size(); ++k) {
     if (dirs[k] == 0) continue;
+    DofMotion m;
+    m.dof = k;
+    m.direction = dirs[k];
     const double delta = 1e-6 * (hi[k] - lo[k]);
-    double step = dirs[k] * delta;
-    if (dofs[k] + step > hi[k] || dofs[k] + step < lo[k]) step = -step;  // at a limit: the motion's direction is the same
+    m.step = dirs[k] * delta;
+    if (dofs[k] + m.step > hi[k] || dofs[k] + m.step < lo[k]) m.step = -m.step;  // at a limit: the motion's direction is the same
     Eigen::VectorXd q1 = dofs;
-    q1[k] += step;
+    q1[k] += m.step;
     const std::vector<Pose> p1 = hand.link_poses(q1, true);
-    Vec3 push = Vec3::Zero();
-    double weight = 0.0, drive = -1.0;
-    std::vector<char> moved(static_cast<std::size_t>(C), 0);
+    m.displacement.resize(static_cast<std::size_t>(C));
+    m.moved.assign(static_cast<std::size_t>(C), 0);
     for (Eigen::Index c = 0; c < C; ++c) {
       const int l = contacts.links[static_cast<std::size_t>(c)];
       const Vec3 x = to_wrist * Vec3(contacts.points.row(c).transpose());
-      Vec3 v = wrist.linear() * (p1[l] * (p0[l].inverse() * x) - x);
-      const double speed = v.norm();
-      if (!(speed > 1e-6 * std::abs(step))) continue;  // a link the DOF does not move: round-off only
-      moved[static_cast<std::size_t>(c)] = 1;
-      v *= (step * dirs[k] > 0 ? 1.0 : -1.0) / speed;  // unit closing motion
+      const Vec3 v = wrist.linear() * (p1[l] * (p0[l].inverse() * x) - x);
+      m.displacement[static_cast<std::size_t>(c)] = v;
+      m.moved[static_cast<std::size_t>(c)] = v.norm() > 1e-6 * std::abs(m.step);  // else round-off only
+    }
+    out.push_back(std::move(m));
+  }
+  return out;
+}
+
+void check_contact_links(const Hand& hand, const Contacts& contacts) {
+  if (contacts.links.size() != static_cast<std::size_t>(contacts.points.rows()) ||
+      contacts.normals.rows() != contacts.points.rows())
+    throw std::invalid_argument("contacts: expected as many normals and links as points, got " +
+                                std::to_string(contacts.points.rows()) + " points, " +
+                                std::to_string(contacts.normals.rows()) + " normals and " +
+                                std::to_string(contacts.links.size()) + " links");
+  const int n = static_cast<int>(hand.links().size());
+  for (std::size_t c = 0; c < contacts.links.size(); ++c)
+    if (contacts.links[c] < 0 || contacts.links[c] >= n)
+      throw std::invalid_argument("contacts: link index " + std::to_string(contacts.links[c]) + " of contact " +
+                                  std::to_string(c) + " is not one of the hand's " + std::to_string(n) + " links");
+}
+
+// min |A x - b| over x >= 0 (Lawson and Hanson's active-set method); returns the residual norm.
+double nonnegative_residual(const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
+  const Eigen::Index n = A.cols();
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(n);
+  std::vector<char> passive(static_cast<std::size_t>(n), 0), blocked(static_cast<std::size_t>(n), 0);
+  const double tiny = 1e-13 * std::max(1.0, A.cwiseAbs().maxCoeff()) * std::max(1.0, b.norm());
+  std::vector<Eigen::Index> cols;
+  for (Eigen::Index outer = 0; outer < 3 * n + 10; ++outer) {
+    const Eigen::VectorXd w = A.transpose() * (b - A * x);
+    Eigen::Index t = -1;
+    double best = tiny;
+    for (Eigen::Index i = 0; i < n; ++i)
+      if (!passive[static_cast<std::size_t>(i)] && !blocked[static_cast<std::size_t>(i)] && w[i] > best) best = w[i], t = i;
+    if (t < 0) break;
+    passive[static_cast<std::size_t>(t)] = 1;
+    for (Eigen::Index inner = 0; inner < n + 10; ++inner) {
+      cols.clear();
+      for (Eigen::Index i = 0; i < n; ++i)
+        if (passive[static_cast<std::size_t>(i)]) cols.push_back(i);
+      Eigen::MatrixXd Ap(A.rows(), static_cast<Eigen::Index>(cols.size()));
+      for (std::size_t k = 0; k < cols.size(); ++k) Ap.col(static_cast<Eigen::Index>(k)) = A.col(cols[k]);
+      const Eigen::VectorXd z = Ap.colPivHouseholderQr().solve(b);
+      if ((z.array() > tiny).all()) {
+        x.setZero();
+        for (std::size_t k = 0; k < cols.size(); ++k) x[cols[k]] = z[static_cast<Eigen::Index>(k)];
+        break;
+      }
+      double alpha = 1.0;
+      for (std::size_t k = 0; k < cols.size(); ++k) {
+        const double zk = z[static_cast<Eigen::Index>(k)], xk = x[cols[k]];
+        if (zk <= tiny) alpha = std::min(alpha, xk / (xk - zk));
+      }
+      for (std::size_t k = 0; k < cols.size(); ++k) {
+        const Eigen::Index i = cols[k];
+        x[i] += alpha * (z[static_cast<Eigen::Index>(k)] - x[i]);
+        if (x[i] <= tiny) x[i] = 0.0, passive[static_cast<std::size_t>(i)] = 0;
+      }
+      // Round-off can make the column just added leave at once (a zero step): it is not tried again
+      // until something else changes, so the method cannot cycle on it.
+      if (!passive[static_cast<std::size_t>(t)] && alpha == 0.0) {
+        blocked[static_cast<std::size_t>(t)] = 1;
+        break;
+      }
+    }
+    if (passive[static_cast<std::size_t>(t)]) std::fill(blocked.begin(), blocked.end(), 0);
+  }
+  return (A * x - b).norm();
+}
+
+}  // namespace
+
+ClosingPush closing_push(const Hand& hand, const Pose& wrist, const Eigen::VectorXd& dofs, const Contacts& contacts) {
+  const std::vector<DofMotion> motions = closing_motions(hand, wrist, dofs, contacts);
+  const Eigen::Index C = contacts.points.rows();
+  double worst = 2.0, least_drive = 2.0;
+  for (const DofMotion& m : motions) {
+    Vec3 push = Vec3::Zero();
+    double weight = 0.0, drive = -1.0;
+    for (Eigen::Index c = 0; c < C; ++c) {
+      if (!m.moved[static_cast<std::size_t>(c)]) continue;  // a link the DOF does not move
+      Vec3 v = m.displacement[static_cast<std::size_t>(c)];
+      v *= (m.step * m.direction > 0 ? 1.0 : -1.0) / v.norm();  // unit closing motion
       const Vec3 in = -contacts.normals.row(c).transpose();
       push += in * std::max(0.0, in.dot(v));
       weight += std::max(0.0, in.dot(v));
@@ -51,13 +155,87 @@ ClosingPush closing_push(const Hand& hand, const Pose& wrist, const Eigen::Vecto
     }
     const Vec3 back = -push.normalized();
     for (Eigen::Index c = 0; c < C; ++c)
-      if (!moved[static_cast<std::size_t>(c)]) best = std::max(best, -contacts.normals.row(c).dot(back));
+      if (!m.moved[static_cast<std::size_t>(c)]) best = std::max(best, -contacts.normals.row(c).dot(back));
     worst = std::min(worst, best);
   }
   ClosingPush out;
   if (worst <= 1.5) out.opposition = worst;
   if (least_drive <= 1.5) out.drive = least_drive;
   return out;
+}
+
+double closing_friction(const Hand& hand, const Pose& wrist, const Eigen::VectorXd& dofs, const Contacts& contacts,
+                        const Eigen::Vector3d& center, const ClosingFrictionOptions& options) {
+  if (!(std::isfinite(options.mu_max) && options.mu_max > 0.0))
+    throw std::invalid_argument("mu_max: expected a finite number > 0, got " + std::to_string(options.mu_max));
+  if (!(std::isfinite(options.tolerance) && options.tolerance > 0.0))
+    throw std::invalid_argument("tolerance: expected a finite number > 0, got " + std::to_string(options.tolerance));
+  if (options.edges < 3) throw std::invalid_argument("edges: expected at least 3, got " + std::to_string(options.edges));
+  if (!center.allFinite()) throw std::invalid_argument("center: expected finite coordinates (m)");
+  if (!wrist.matrix().allFinite()) throw std::invalid_argument("wrist_pose: expected finite values");
+  check_contact_links(hand, contacts);
+  if (!contacts.points.allFinite()) throw std::invalid_argument("points: expected finite coordinates (m)");
+  const Eigen::Index C = contacts.points.rows();
+  std::vector<DofMotion> motions = closing_motions(hand, wrist, dofs, contacts);  // validates dofs
+  motions.erase(std::remove_if(motions.begin(), motions.end(),
+                               [](const DofMotion& m) {
+                                 return std::none_of(m.moved.begin(), m.moved.end(), [](char c) { return c != 0; });
+                               }),
+                motions.end());
+  if (C == 0 || motions.empty()) return std::numeric_limits<double>::quiet_NaN();
+
+  // Each DOF's stall torque: |ratio| * effort of its first joint, relative to the largest.
+  std::map<std::string, double> effort;
+  for (const HandJoint& j : hand.joints()) effort[j.name] = j.effort;
+  Eigen::VectorXd torque(static_cast<Eigen::Index>(motions.size()));
+  for (std::size_t k = 0; k < motions.size(); ++k) {
+    const DofJoint& first = hand.dofs()[static_cast<std::size_t>(motions[k].dof)].joints.front();
+    torque[static_cast<Eigen::Index>(k)] = std::abs(first.ratio) * effort[first.joint];
+  }
+  if (!(torque.minCoeff() > 0.0)) torque.setOnes();  // an effort missing: equal ones
+  torque /= torque.maxCoeff();
+
+  double radius = 0.0;
+  std::vector<Eigen::Matrix3d> frames(static_cast<std::size_t>(C));
+  for (Eigen::Index c = 0; c < C; ++c) {
+    radius = std::max(radius, (Vec3(contacts.points.row(c).transpose()) - center).norm());
+    frames[static_cast<std::size_t>(c)] = contact_frame(contacts.normals.row(c).transpose());  // validates normals
+  }
+  radius = std::max(radius, 1e-9);
+  const int E = options.edges;
+  const Eigen::Index rows = 6 + static_cast<Eigen::Index>(motions.size());
+  Eigen::VectorXd b = Eigen::VectorXd::Zero(rows);
+  b.tail(static_cast<Eigen::Index>(motions.size())) = torque;
+  // Whether forces in the pyramids of coefficient mu balance the stall torques and one another.
+  auto balanced = [&](double mu) {
+    Eigen::MatrixXd A(rows, C * E);
+    for (Eigen::Index c = 0; c < C; ++c) {
+      const Eigen::Matrix3d& f = frames[static_cast<std::size_t>(c)];
+      const Vec3 r = (Vec3(contacts.points.row(c).transpose()) - center) / radius;
+      for (int e = 0; e < E; ++e) {
+        const double a = 2.0 * 3.14159265358979323846 * e / E;
+        const Vec3 edge = f.row(2).transpose() + mu * (std::cos(a) * f.row(0).transpose() + std::sin(a) * f.row(1).transpose());
+        const Eigen::Index col = c * E + e;
+        A.block<3, 1>(0, col) = edge;
+        A.block<3, 1>(3, col) = r.cross(edge);
+        for (std::size_t k = 0; k < motions.size(); ++k) {
+          const DofMotion& m = motions[k];
+          // work per unit closing: the contact's closing velocity (m per rad or m per m) along the force
+          const Vec3 v = m.displacement[static_cast<std::size_t>(c)] / (m.step * m.direction);
+          A(6 + static_cast<Eigen::Index>(k), col) = m.moved[static_cast<std::size_t>(c)] ? v.dot(edge) / radius : 0.0;
+        }
+      }
+    }
+    return nonnegative_residual(A, b) <= 1e-7 * b.norm();
+  };
+  if (!balanced(options.mu_max)) return std::numeric_limits<double>::infinity();
+  if (balanced(0.0)) return 0.0;
+  double low = 0.0, high = options.mu_max;
+  while (high - low > options.tolerance) {
+    const double mid = 0.5 * (low + high);
+    (balanced(mid) ? high : low) = mid;
+  }
+  return high;
 }
 
 }  // namespace pairgrasp

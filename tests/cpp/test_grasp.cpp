@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <set>
 #include <stdexcept>
 #include <tuple>
@@ -162,6 +163,60 @@ TEST(Grasp, ClosingPushOfTheJawsPadsAndOfAFingerAgainstThePalm) {
   EXPECT_EQ(none.opposition, -1.0);
   EXPECT_EQ(none.drive, -1.0);
   EXPECT_THROW(closing_push(bh, wrist, Eigen::VectorXd::Zero(3), contacts_of(bh, {})), std::invalid_argument);
+}
+
+TEST(Grasp, ClosingFrictionOfTheJawsPadsAndOfAFingerAgainstThePalmIsTheTangentOfTheTilt) {
+  // Parallel jaw on the box: the pads press straight into opposite faces, no friction needed; one pad
+  // alone pushes the box away (infinite); nothing pushed (no contact) is NaN.
+  const Hand jaw = th::parallel_jaw();
+  CheckOptions opt;
+  opt.contact_gap = 0.001;
+  const GraspChecker checker(jaw, jaw_box(), Mask(), {}, opt);
+  const CloseResult r = close_fingers(checker, Pose::Identity(), dofs1(0.08));
+  const Contacts both = find_contacts(checker, Pose::Identity(), r.dofs);
+  const Vector3d centre(0.0, 0.0, 0.085);
+  EXPECT_EQ(closing_friction(jaw, Pose::Identity(), r.dofs, both, centre), 0.0);
+  std::vector<std::tuple<Vector3d, Vector3d, std::string>> left;
+  for (int k = 0; k < both.points.rows(); ++k)
+    if (both.link_names[k] == "pj_left_finger")
+      left.emplace_back(both.points.row(k).transpose(), both.normals.row(k).transpose(), both.link_names[k]);
+  EXPECT_EQ(closing_friction(jaw, Pose::Identity(), r.dofs, contacts_of(jaw, left), centre),
+            std::numeric_limits<double>::infinity());
+  EXPECT_TRUE(std::isnan(closing_friction(jaw, Pose::Identity(), r.dofs, contacts_of(jaw, {}), centre)));
+
+  // Barrett, wrist turned and moved: finger 3's distal link pushes along its own closing motion u,
+  // and the palm pushes back on the same line through a contact whose inward normal makes the angle
+  // a with -u: the force along the line is a off that normal, so the palm needs friction tan(a).
+  const Hand bh = th::barrett();
+  const Eigen::Vector4d q(0.3, 0.8, 0.8, 0.8);
+  Pose wrist = Pose::Identity();
+  wrist.linear() = Eigen::AngleAxisd(0.7, Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  wrist.translation() = Vector3d(0.1, -0.2, 0.05);
+  const int f3 = bh.link_index("bh_f3_dist");
+  const Vector3d tip_local = bh.links()[f3].mesh.vertices.colwise().mean().transpose();
+  Eigen::Vector4d q1 = q;
+  q1[3] += 1e-3;
+  const Vector3d a0 = bh.link_poses(q)[f3] * tip_local, a1 = bh.link_poses(q1)[f3] * tip_local;
+  const Vector3d u = wrist.linear() * (a1 - a0).normalized();
+  const Vector3d p = wrist * a0, palm = p + 0.03 * u;
+  const Vector3d side = u.unitOrthogonal();
+  ClosingFrictionOptions fine;
+  fine.edges = 64;  // within 1 / cos(pi / 64) - 1 = 0.12% of the cone
+  fine.tolerance = 1e-5;
+  for (double a : {0.0, 0.2, 0.5, 0.9}) {
+    const Vector3d palm_in = std::cos(a) * -u + std::sin(a) * side;
+    const Contacts c = contacts_of(bh, {{p, -u, "bh_f3_dist"}, {palm, -palm_in, "bh_palm"}});
+    EXPECT_NEAR(closing_friction(bh, wrist, q, c, 0.5 * (p + palm), fine), std::tan(a), 2e-3 * std::tan(a) + 2e-5)
+        << "a = " << a;
+  }
+  ClosingFrictionOptions bad;
+  bad.mu_max = -1.0;
+  EXPECT_THROW(closing_friction(bh, wrist, q, contacts_of(bh, {}), Vector3d::Zero(), bad), std::invalid_argument);
+  EXPECT_THROW(closing_friction(bh, wrist, Eigen::VectorXd::Zero(3), contacts_of(bh, {}), Vector3d::Zero()),
+               std::invalid_argument);
+  Contacts wrong = contacts_of(bh, {{p, -u, "bh_f3_dist"}});
+  wrong.links[0] = 99;
+  EXPECT_THROW(closing_friction(bh, wrist, q, wrong, Vector3d::Zero()), std::invalid_argument);
 }
 
 TEST(Grasp, ContactsOnOccludedFacesAreOnlyCounted) {

@@ -118,6 +118,29 @@ struct ClosingPush {
 /// std::invalid_argument for a bad DOF vector ("dofs: ...").
 ClosingPush closing_push(const Hand& hand, const Pose& wrist, const Eigen::VectorXd& dofs, const Contacts& contacts);
 
+/// Options of closing_friction().
+struct ClosingFrictionOptions {
+  double mu_max = 2.0;       ///< the largest friction coefficient tried
+  int edges = 8;             ///< edges of each friction pyramid (wrenches.hpp's convention)
+  double tolerance = 1e-3;   ///< accuracy of the answer (bisection)
+};
+
+/// The least friction coefficient at which the closing DOFs, each pushing with its stall torque,
+/// are balanced by contact forces at `contacts` (target frame, at (wrist, dofs)), with no load on
+/// the object. Each closing DOF (closing_directions()) that moves a contact pushes with
+/// |ratio| * effort of its first joint (the physics check's actuator; all equal when one has no
+/// effort): the work it does per unit of closing equals that of the contact forces on the contacts
+/// it moves. A DOF that does not close the hand (the Barrett spread) and a link no DOF moves (the
+/// palm) push back with whatever force balance needs. The forces lie in the friction pyramids and
+/// add up to no net force and no net torque about `center` (metres, the target's centre of mass).
+/// Returns a value in [0, mu_max] (0: the normal forces alone balance), +infinity when mu_max does
+/// not balance them (a finger pushing the object away alone), NaN when no closing DOF moves a
+/// contact. Each trial coefficient is a non-negative least-squares feasibility test. Throws
+/// std::invalid_argument for a bad DOF vector ("dofs: ..."), a link index out of range, non-finite
+/// points, normals or center, and bad options (naming the field).
+double closing_friction(const Hand& hand, const Pose& wrist, const Eigen::VectorXd& dofs, const Contacts& contacts,
+                        const Eigen::Vector3d& center, const ClosingFrictionOptions& options = {});
+
 /// The contacts of the hand at (wrist, dofs): the samples of every link's active faces (spacing
 /// CheckOptions::contact_spacing, independent of any constellation) whose signed distance to the
 /// target lies in [−max(depth_tolerance, contact_gap), contact_gap], on free faces only (per the
