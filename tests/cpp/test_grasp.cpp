@@ -30,6 +30,48 @@ Mesh jaw_box(double dx = 0.0) {
   return tmesh::box_mesh(Vector3d(-0.025 + dx, -0.02, 0.06), Vector3d(0.025 + dx, 0.02, 0.11), 4, "jaw box");
 }
 
+// The parallel jaw closed on jaw_box() at the wrist's identity: its DOFs and contacts (both pads).
+struct JawGrasp {
+  Hand jaw = th::parallel_jaw();
+  Eigen::VectorXd dofs;
+  Contacts both;
+  JawGrasp() {
+    CheckOptions opt;
+    opt.contact_gap = 0.001;
+    const GraspChecker checker(jaw, jaw_box(), Mask(), {}, opt);
+    dofs = close_fingers(checker, Pose::Identity(), dofs1(0.08)).dofs;
+    both = find_contacts(checker, Pose::Identity(), dofs);
+  }
+  // The left pad's contacts alone.
+  std::vector<std::tuple<Vector3d, Vector3d, std::string>> left() const {
+    std::vector<std::tuple<Vector3d, Vector3d, std::string>> out;
+    for (int k = 0; k < both.points.rows(); ++k)
+      if (both.link_names[k] == "pj_left_finger")
+        out.emplace_back(both.points.row(k).transpose(), both.normals.row(k).transpose(), both.link_names[k]);
+    return out;
+  }
+};
+
+// The Barrett hand at q = (0.3, 0.8, 0.8, 0.8) with a turned and moved wrist: a point p on finger 3's
+// distal link and the direction u that link closes in there (target frame).
+struct FingerThreeMotion {
+  Hand bh = th::barrett();
+  Eigen::Vector4d q{0.3, 0.8, 0.8, 0.8};
+  Pose wrist = Pose::Identity();
+  Vector3d p, u;
+  FingerThreeMotion() {
+    wrist.linear() = Eigen::AngleAxisd(0.7, Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+    wrist.translation() = Vector3d(0.1, -0.2, 0.05);
+    const int f3 = bh.link_index("bh_f3_dist");
+    const Vector3d tip_local = bh.links()[f3].mesh.vertices.colwise().mean().transpose();  // a point on the link
+    Eigen::Vector4d q1 = q;
+    q1[3] += 1e-3;
+    const Vector3d a0 = bh.link_poses(q)[f3] * tip_local, a1 = bh.link_poses(q1)[f3] * tip_local;
+    u = wrist.linear() * (a1 - a0).normalized();
+    p = wrist * a0;
+  }
+};
+
 }  // namespace
 
 TEST(Grasp, ClosingDirectionsFollowTheActiveSurfaces) {
@@ -118,37 +160,21 @@ Contacts contacts_of(const Hand& hand, const std::vector<std::tuple<Vector3d, Ve
 
 TEST(Grasp, ClosingPushOfTheJawsPadsAndOfAFingerAgainstThePalm) {
   // Parallel jaw on the box: one DOF moves both pads and their pushes (+x and -x) cancel: 1.
-  const Hand jaw = th::parallel_jaw();
-  CheckOptions opt;
-  opt.contact_gap = 0.001;
-  const GraspChecker checker(jaw, jaw_box(), Mask(), {}, opt);
-  const CloseResult r = close_fingers(checker, Pose::Identity(), dofs1(0.08));
-  const Contacts both = find_contacts(checker, Pose::Identity(), r.dofs);
-  const ClosingPush jaw_push = closing_push(jaw, Pose::Identity(), r.dofs, both);
+  const JawGrasp g;
+  const ClosingPush jaw_push = closing_push(g.jaw, Pose::Identity(), g.dofs, g.both);
   EXPECT_NEAR(jaw_push.opposition, 1.0, 1e-9);
   EXPECT_NEAR(jaw_push.drive, 1.0, 1e-9);  // the pads close straight into the faces
   // One pad only (the left pad's contacts): nothing pushes back, its own pushes do not cancel.
-  std::vector<std::tuple<Vector3d, Vector3d, std::string>> left;
-  for (int k = 0; k < both.points.rows(); ++k)
-    if (both.link_names[k] == "pj_left_finger")
-      left.emplace_back(both.points.row(k).transpose(), both.normals.row(k).transpose(), both.link_names[k]);
-  EXPECT_NEAR(closing_push(jaw, Pose::Identity(), r.dofs, contacts_of(jaw, left)).opposition, 0.0, 1e-9);
+  EXPECT_NEAR(closing_push(g.jaw, Pose::Identity(), g.dofs, contacts_of(g.jaw, g.left())).opposition, 0.0, 1e-9);
 
   // Barrett, a wrist turned and moved: a contact on finger 3's distal link whose inward normal is
   // the direction the link closes in there (so it pushes along it), and a palm contact whose
   // inward normal makes the angle a with the reverse of that push: the opposition is cos(a).
-  const Hand bh = th::barrett();
-  const Eigen::Vector4d q(0.3, 0.8, 0.8, 0.8);
-  Pose wrist = Pose::Identity();
-  wrist.linear() = Eigen::AngleAxisd(0.7, Vector3d(1, 2, 3).normalized()).toRotationMatrix();
-  wrist.translation() = Vector3d(0.1, -0.2, 0.05);
-  const int f3 = bh.link_index("bh_f3_dist");
-  const Vector3d tip_local = bh.links()[f3].mesh.vertices.colwise().mean().transpose();  // a point on the link
-  Eigen::Vector4d q1 = q;
-  q1[3] += 1e-3;
-  const Vector3d a0 = bh.link_poses(q)[f3] * tip_local, a1 = bh.link_poses(q1)[f3] * tip_local;
-  const Vector3d u = wrist.linear() * (a1 - a0).normalized();  // closing motion, target frame
-  const Vector3d p = wrist * a0;
+  const FingerThreeMotion f;
+  const Hand& bh = f.bh;
+  const Eigen::Vector4d& q = f.q;
+  const Pose& wrist = f.wrist;
+  const Vector3d &u = f.u, &p = f.p;
   const Vector3d side = u.unitOrthogonal();
   for (double a : {0.0, 0.4, 1.0, 1.5}) {
     // the palm's inward normal is cos(a) (-u) + sin(a) side; outward normals are their negatives
@@ -168,37 +194,21 @@ TEST(Grasp, ClosingPushOfTheJawsPadsAndOfAFingerAgainstThePalm) {
 TEST(Grasp, ClosingFrictionOfTheJawsPadsAndOfAFingerAgainstThePalmIsTheTangentOfTheTilt) {
   // Parallel jaw on the box: the pads press straight into opposite faces, no friction needed; one pad
   // alone pushes the box away (infinite); nothing pushed (no contact) is NaN.
-  const Hand jaw = th::parallel_jaw();
-  CheckOptions opt;
-  opt.contact_gap = 0.001;
-  const GraspChecker checker(jaw, jaw_box(), Mask(), {}, opt);
-  const CloseResult r = close_fingers(checker, Pose::Identity(), dofs1(0.08));
-  const Contacts both = find_contacts(checker, Pose::Identity(), r.dofs);
+  const JawGrasp g;
   const Vector3d centre(0.0, 0.0, 0.085);
-  EXPECT_EQ(closing_friction(jaw, Pose::Identity(), r.dofs, both, centre), 0.0);
-  std::vector<std::tuple<Vector3d, Vector3d, std::string>> left;
-  for (int k = 0; k < both.points.rows(); ++k)
-    if (both.link_names[k] == "pj_left_finger")
-      left.emplace_back(both.points.row(k).transpose(), both.normals.row(k).transpose(), both.link_names[k]);
-  EXPECT_EQ(closing_friction(jaw, Pose::Identity(), r.dofs, contacts_of(jaw, left), centre),
+  EXPECT_EQ(closing_friction(g.jaw, Pose::Identity(), g.dofs, g.both, centre), 0.0);
+  EXPECT_EQ(closing_friction(g.jaw, Pose::Identity(), g.dofs, contacts_of(g.jaw, g.left()), centre),
             std::numeric_limits<double>::infinity());
-  EXPECT_TRUE(std::isnan(closing_friction(jaw, Pose::Identity(), r.dofs, contacts_of(jaw, {}), centre)));
+  EXPECT_TRUE(std::isnan(closing_friction(g.jaw, Pose::Identity(), g.dofs, contacts_of(g.jaw, {}), centre)));
 
   // Barrett, wrist turned and moved: finger 3's distal link pushes along its own closing motion u,
   // and the palm pushes back on the same line through a contact whose inward normal makes the angle
   // a with -u: the force along the line is a off that normal, so the palm needs friction tan(a).
-  const Hand bh = th::barrett();
-  const Eigen::Vector4d q(0.3, 0.8, 0.8, 0.8);
-  Pose wrist = Pose::Identity();
-  wrist.linear() = Eigen::AngleAxisd(0.7, Vector3d(1, 2, 3).normalized()).toRotationMatrix();
-  wrist.translation() = Vector3d(0.1, -0.2, 0.05);
-  const int f3 = bh.link_index("bh_f3_dist");
-  const Vector3d tip_local = bh.links()[f3].mesh.vertices.colwise().mean().transpose();
-  Eigen::Vector4d q1 = q;
-  q1[3] += 1e-3;
-  const Vector3d a0 = bh.link_poses(q)[f3] * tip_local, a1 = bh.link_poses(q1)[f3] * tip_local;
-  const Vector3d u = wrist.linear() * (a1 - a0).normalized();
-  const Vector3d p = wrist * a0, palm = p + 0.03 * u;
+  const FingerThreeMotion f;
+  const Hand& bh = f.bh;
+  const Eigen::Vector4d& q = f.q;
+  const Pose& wrist = f.wrist;
+  const Vector3d &u = f.u, &p = f.p, palm = p + 0.03 * u;
   const Vector3d side = u.unitOrthogonal();
   ClosingFrictionOptions fine;
   fine.edges = 64;  // within 1 / cos(pi / 64) - 1 = 0.12% of the cone
