@@ -6,9 +6,9 @@ docs/physics.md), and so do the motors of a real hand. Before any load, the obje
 the plan put it only if contact forces inside the friction cones can balance those stall torques and
 one another. :func:`closing_friction` asks for the least friction coefficient at which they can: a
 grasp that needs more than its contacts have is pushed along while the fingers close, until it
-comes to rest somewhere the plan did not put it. In the physics check it orders the grasps of one
-plan by how often they hold better than epsilon or the load resistance do, though across objects it
-does not tell which will fail (docs/physics.md).
+comes to rest somewhere the plan did not put it. In the physics check it ordered the grasps of one
+plan by how often they held better than epsilon or the load resistance on the held-out objects' dev
+half, and worse than chance on the test half, so no ranking uses it (docs/physics.md).
 """
 from __future__ import annotations
 
@@ -26,9 +26,10 @@ def closing_friction(hand, wrist_pose, dofs, points, normals, links, center, mu_
     """The least friction coefficient at which the closing DOFs, each pushing with its stall torque,
     are balanced by contact forces at the grasp's contacts, with no load on the object.
 
-    Each closing DOF (:func:`pairgrasp.closing_directions`) that moves a contact pushes with the URDF
-    ``effort`` of its first joint, as the physics check's actuator does (all equal when one has none): the work it does per unit of
-    closing equals that of the contact forces on the contacts it moves. DOFs that do not close the
+    Each closing DOF (:func:`pairgrasp.closing_directions`) that moves a contact pushes with
+    ``|ratio| * effort`` of its first joint (the URDF effort), as the physics check's actuator does
+    (all equal when one has none): the work it does per unit of closing equals that of the contact
+    forces on the contacts it moves. DOFs that do not close the
     hand (the Barrett spread) and links no DOF moves (the palm) push back with whatever force
     balance needs. The forces lie in the friction pyramids of :mod:`pairgrasp.quality` and add up to
     no net force and no net torque about ``center``.
@@ -47,10 +48,10 @@ def closing_friction(hand, wrist_pose, dofs, points, normals, links, center, mu_
             least-squares feasibility test, in C++: ``closing_friction()`` of ``grasp.hpp``).
 
     Returns:
-        The coefficient in [0, mu_max] (0: the normal forces alone balance; 0.3: a finger whose
-        contact needs more than 0.3 pushes the object aside while closing), ``inf`` when even
-        ``mu_max`` does not balance them (a single finger pushing the object away), ``nan`` when no
-        closing DOF moves a contact (nothing is pushed).
+        The coefficient in [0, mu_max] (0: the normal forces alone balance; above the contacts' own
+        friction, the closing fingers push the object along), ``inf`` when even ``mu_max`` does not
+        balance them (a single finger pushing the object away), ``nan`` when no closing DOF moves a
+        contact (nothing is pushed).
 
     Raises:
         ValueError: malformed input, naming the argument; DOF values outside the limits.
