@@ -359,6 +359,15 @@ def tables(runs, hands, modes):
                             counts[c] = counts.get(c, 0) + 1
                 causes_lines.append(f"**{hand}, {mode}, {split}** ({len(rs)} objects, {n_trials} rank-1 trials): "
                                     + "; ".join(f"{k}: {v}" for k, v in sorted(counts.items(), key=lambda kv: -kv[1])))
+                # How far the object moved while the fingers closed in the unperturbed trial, over every
+                # simulated grasp (docs/physics.md: it moves even where the planned contacts balance).
+                moves = [g["trials"][0]["closing_translation"] for r in rs for g in r["grasps"]
+                         if g["trials"] and g["trials"][0].get("closing_translation") is not None
+                         and (g["force_closure"] or g.get("ungated"))]
+                if moves:
+                    causes_lines.append(f"closing move in the unperturbed trial ({len(moves)} grasps): median "
+                                        f"{1000 * statistics.median(moves):.1f} mm, "
+                                        f"{100 * np.mean(np.asarray(moves) > 0.005):.0f}% over 5 mm")
                 if hand in PEERS:   # the rules order pairgrasp's plans; a peer keeps its own order
                     continue
                 row = []
