@@ -19,6 +19,20 @@ using Vec3 = Eigen::Vector3d;
 
 namespace {
 
+void check_contact_links(const Hand& hand, const Contacts& contacts) {
+  if (contacts.links.size() != static_cast<std::size_t>(contacts.points.rows()) ||
+      contacts.normals.rows() != contacts.points.rows())
+    throw std::invalid_argument("contacts: expected as many normals and links as points, got " +
+                                std::to_string(contacts.points.rows()) + " points, " +
+                                std::to_string(contacts.normals.rows()) + " normals and " +
+                                std::to_string(contacts.links.size()) + " links");
+  const int n = static_cast<int>(hand.links().size());
+  for (std::size_t c = 0; c < contacts.links.size(); ++c)
+    if (contacts.links[c] < 0 || contacts.links[c] >= n)
+      throw std::invalid_argument("contacts: link index " + std::to_string(contacts.links[c]) + " of contact " +
+                                  std::to_string(c) + " is not one of the hand's " + std::to_string(n) + " links");
+}
+
 // How one closing DOF moves the contacts: a finite-difference step of the DOF and each contact's
 // displacement (target frame) over it.
 struct DofMotion {
@@ -33,6 +47,7 @@ struct DofMotion {
 std::vector<DofMotion> closing_motions(const Hand& hand, const Pose& wrist, const Eigen::VectorXd& dofs,
                                        const Contacts& contacts) {
   const Eigen::VectorXi dirs = closing_directions(hand, dofs);  // validates dofs
+  check_contact_links(hand, contacts);
   const std::vector<Pose> p0 = hand.link_poses(dofs);
   const Eigen::VectorXd lo = hand.dof_lower(), hi = hand.dof_upper();
   const Eigen::Index C = contacts.points.rows();
@@ -61,20 +76,6 @@ std::vector<DofMotion> closing_motions(const Hand& hand, const Pose& wrist, cons
     out.push_back(std::move(m));
   }
   return out;
-}
-
-void check_contact_links(const Hand& hand, const Contacts& contacts) {
-  if (contacts.links.size() != static_cast<std::size_t>(contacts.points.rows()) ||
-      contacts.normals.rows() != contacts.points.rows())
-    throw std::invalid_argument("contacts: expected as many normals and links as points, got " +
-                                std::to_string(contacts.points.rows()) + " points, " +
-                                std::to_string(contacts.normals.rows()) + " normals and " +
-                                std::to_string(contacts.links.size()) + " links");
-  const int n = static_cast<int>(hand.links().size());
-  for (std::size_t c = 0; c < contacts.links.size(); ++c)
-    if (contacts.links[c] < 0 || contacts.links[c] >= n)
-      throw std::invalid_argument("contacts: link index " + std::to_string(contacts.links[c]) + " of contact " +
-                                  std::to_string(c) + " is not one of the hand's " + std::to_string(n) + " links");
 }
 
 // min |A x - b| over x >= 0 (Lawson and Hanson's active-set method); returns the residual norm.
@@ -173,10 +174,9 @@ double closing_friction(const Hand& hand, const Pose& wrist, const Eigen::Vector
   if (options.edges < 3) throw std::invalid_argument("edges: expected at least 3, got " + std::to_string(options.edges));
   if (!center.allFinite()) throw std::invalid_argument("center: expected finite coordinates (m)");
   if (!wrist.matrix().allFinite()) throw std::invalid_argument("wrist_pose: expected finite values");
-  check_contact_links(hand, contacts);
   if (!contacts.points.allFinite()) throw std::invalid_argument("points: expected finite coordinates (m)");
   const Eigen::Index C = contacts.points.rows();
-  std::vector<DofMotion> motions = closing_motions(hand, wrist, dofs, contacts);  // validates dofs
+  std::vector<DofMotion> motions = closing_motions(hand, wrist, dofs, contacts);  // validates dofs and links
   motions.erase(std::remove_if(motions.begin(), motions.end(),
                                [](const DofMotion& m) {
                                  return std::none_of(m.moved.begin(), m.moved.end(), [](char c) { return c != 0; });

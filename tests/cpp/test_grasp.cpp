@@ -189,6 +189,9 @@ TEST(Grasp, ClosingPushOfTheJawsPadsAndOfAFingerAgainstThePalm) {
   EXPECT_EQ(none.opposition, -1.0);
   EXPECT_EQ(none.drive, -1.0);
   EXPECT_THROW(closing_push(bh, wrist, Eigen::VectorXd::Zero(3), contacts_of(bh, {})), std::invalid_argument);
+  Contacts wrong = contacts_of(bh, {{p, -u, "bh_f3_dist"}});
+  wrong.links[0] = -1;
+  EXPECT_THROW(closing_push(bh, wrist, q, wrong), std::invalid_argument);
 }
 
 TEST(Grasp, ClosingFrictionOfTheJawsPadsAndOfAFingerAgainstThePalmIsTheTangentOfTheTilt) {

@@ -115,7 +115,8 @@ struct ClosingPush {
 /// The ClosingPush of a grasp's contacts (target frame) at (wrist, dofs): motion by forward
 /// kinematics (finite differences). In the physics check, grasps whose fingers push the object
 /// out while closing or once the table is gone score low (docs/physics.md). Throws
-/// std::invalid_argument for a bad DOF vector ("dofs: ...").
+/// std::invalid_argument for a bad DOF vector ("dofs: ..."), and for contacts whose sizes or link
+/// indices do not fit the hand ("contacts: ...").
 ClosingPush closing_push(const Hand& hand, const Pose& wrist, const Eigen::VectorXd& dofs, const Contacts& contacts);
 
 /// Options of closing_friction().
