@@ -196,36 +196,30 @@ double closing_friction(const Hand& hand, const Pose& wrist, const Eigen::Vector
   torque /= torque.maxCoeff();
 
   double radius = 0.0;
-  std::vector<Eigen::Matrix3d> frames(static_cast<std::size_t>(C));
-  for (Eigen::Index c = 0; c < C; ++c) {
+  for (Eigen::Index c = 0; c < C; ++c)
     radius = std::max(radius, (Vec3(contacts.points.row(c).transpose()) - center).norm());
-    frames[static_cast<std::size_t>(c)] = contact_frame(contacts.normals.row(c).transpose());  // validates normals
-  }
   radius = std::max(radius, 1e-9);
+  // Each moved contact's velocity per unit closing of each DOF (m per rad or m per m), over radius.
+  std::vector<std::vector<Vec3>> velocity(motions.size(), std::vector<Vec3>(static_cast<std::size_t>(C), Vec3::Zero()));
+  for (std::size_t k = 0; k < motions.size(); ++k)
+    for (std::size_t c = 0; c < static_cast<std::size_t>(C); ++c)
+      if (motions[k].moved[c])
+        velocity[k][c] = motions[k].displacement[c] / (motions[k].step * motions[k].direction * radius);
   const int E = options.edges;
   const Eigen::Index rows = 6 + static_cast<Eigen::Index>(motions.size());
   Eigen::VectorXd b = Eigen::VectorXd::Zero(rows);
   b.tail(static_cast<Eigen::Index>(motions.size())) = torque;
-  // Whether forces in the pyramids of coefficient mu balance the stall torques and one another.
+  // Whether forces in the pyramids of coefficient mu balance the stall torques and one another: the
+  // columns are the pyramid edges' wrenches (no net force or torque) and the work per unit closing
+  // of each DOF along them.
   auto balanced = [&](double mu) {
-    Eigen::MatrixXd A(rows, C * E);
-    for (Eigen::Index c = 0; c < C; ++c) {
-      const Eigen::Matrix3d& f = frames[static_cast<std::size_t>(c)];
-      const Vec3 r = (Vec3(contacts.points.row(c).transpose()) - center) / radius;
-      for (int e = 0; e < E; ++e) {
-        const double a = 2.0 * 3.14159265358979323846 * e / E;
-        const Vec3 edge = f.row(2).transpose() + mu * (std::cos(a) * f.row(0).transpose() + std::sin(a) * f.row(1).transpose());
-        const Eigen::Index col = c * E + e;
-        A.block<3, 1>(0, col) = edge;
-        A.block<3, 1>(3, col) = r.cross(edge);
-        for (std::size_t k = 0; k < motions.size(); ++k) {
-          const DofMotion& m = motions[k];
-          // work per unit closing: the contact's closing velocity (m per rad or m per m) along the force
-          const Vec3 v = m.displacement[static_cast<std::size_t>(c)] / (m.step * m.direction);
-          A(6 + static_cast<Eigen::Index>(k), col) = m.moved[static_cast<std::size_t>(c)] ? v.dot(edge) / radius : 0.0;
-        }
-      }
-    }
+    const Wrenches w = wrench_matrix(contacts.points, contacts.normals, center, radius, mu, E);  // validates normals
+    Eigen::MatrixXd A(rows, w.rows());
+    A.topRows(6) = w.transpose();
+    for (std::size_t k = 0; k < motions.size(); ++k)
+      for (Eigen::Index col = 0; col < w.rows(); ++col)
+        A(6 + static_cast<Eigen::Index>(k), col) =
+            velocity[k][static_cast<std::size_t>(col / E)].dot(w.row(col).head<3>().transpose());
     return nonnegative_residual(A, b) <= 1e-7 * b.norm();
   };
   if (!balanced(options.mu_max)) return std::numeric_limits<double>::infinity();

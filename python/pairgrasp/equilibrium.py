@@ -12,11 +12,10 @@ half, and worse than chance on the test half, so no ranking uses it (docs/physic
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from . import _core
+from .quality import _count, _real
 
 __all__ = ["closing_friction"]
 
@@ -68,10 +67,7 @@ def closing_friction(hand, wrist_pose, dofs, points, normals, links, center, mu_
         if not 0 <= i < len(hand.links):
             raise ValueError(f"links: {link!r} is not a link with geometry of hand {hand.name}")
         index.append(i)
-    for name, v in (("mu_max", mu_max), ("tolerance", tolerance)):
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-            raise ValueError(f"{name}: expected a finite number > 0, got {v!r}")
-    if isinstance(edges, bool) or not isinstance(edges, (int, np.integer)) or edges < 3:
-        raise ValueError(f"edges: expected an integer >= 3, got {edges!r}")
-    return float(_core._closing_friction(hand, wrist_pose, dofs, p.reshape(-1, 3), np.asarray(normals, float),
-                                         index, center, float(mu_max), int(edges), float(tolerance)))
+    mu_max = _real("mu_max", mu_max, low=0.0, strict=True)
+    tolerance = _real("tolerance", tolerance, low=0.0, strict=True)
+    return float(_core._closing_friction(hand, wrist_pose, dofs, p, np.asarray(normals, float), index,
+                                         center, mu_max, _count("edges", edges, 3), tolerance))
