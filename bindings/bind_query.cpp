@@ -97,25 +97,6 @@ void bind_query(pyb::module_& m) {
           "points"_a, "threads"_a = 0,
           "Closest surface points of (N,3) points: SurfacePoints (points, normals, faces, distances).")
       .def(
-          "contact_normals",
-          [](const SurfaceQuery& q, const pyb::object& points, const pyb::object& towards) {
-            const Points p = points_from(points, "points");
-            const Points t = points_from(towards, "towards");
-            if (t.rows() != p.rows())
-              throw std::invalid_argument("towards: expected one direction per point (" + std::to_string(p.rows()) +
-                                          "), got " + std::to_string(t.rows()));
-            Points out(p.rows(), 3);
-            pyb::gil_scoped_release release;
-            for (Eigen::Index i = 0; i < p.rows(); ++i)
-              out.row(i) = q.contact_normal(q.closest(p.row(i).transpose()), t.row(i).transpose()).transpose();
-            return out;
-          },
-          "points"_a, "towards"_a,
-          "(N,3) outward normals at the closest surface points of (N,3) points, each the one of the surface's "
-          "normals there nearest to towards[k]: the face's normal inside a face, on an edge or corner the "
-          "direction of the cone the faces meeting there span nearest to towards[k] (the contact normal of a "
-          "body whose outward normal there is -towards[k]).")
-      .def(
           "distance",
           [](const SurfaceQuery& q, const pyb::object& points, int threads) {
             const Points p = points_from(points, "points");

@@ -244,17 +244,9 @@ GraspChecker::Impl::Impl(const Hand& hand_in, const Mesh& target_in, const Mask&
     L.samples = renamed("sample_spacing", [&] { return vd::make_samples(m, sample_spacing); });
     if (hl[l].active()) {
       L.fcl_active = vd::make_fcl_model(m.vertices, m.faces, hl[l].active_faces);
-      std::vector<int> face_of;
       L.contact_samples = renamed("contact_spacing", [&] {
-        return vd::sample_surface(m.vertices, m.faces, hl[l].active_faces, options.contact_spacing, &face_of);
+        return vd::sample_surface(m.vertices, m.faces, hl[l].active_faces, options.contact_spacing);
       });
-      L.contact_normals.resize(L.contact_samples.rows(), 3);
-      for (Eigen::Index i = 0; i < L.contact_samples.rows(); ++i) {
-        const int f = face_of[static_cast<std::size_t>(i)];
-        const Vec3 a = m.vertices.row(m.faces(f, 0)).transpose(), b = m.vertices.row(m.faces(f, 1)).transpose(),
-                   c = m.vertices.row(m.faces(f, 2)).transpose();
-        L.contact_normals.row(i) = (b - a).cross(c - a).normalized().transpose();
-      }
     }
   }
   // Scene: target first, then obstacles.

@@ -130,7 +130,6 @@ struct LinkModel {
   std::unique_ptr<SurfaceQuery> query;    ///< of the link mesh (for target samples inside it)
   SurfaceSamples samples;                 ///< depth samples, link frame
   Points contact_samples;                 ///< active-surface samples at contact_spacing, link frame
-  Points contact_normals;                 ///< unit outward normal of each contact sample's face, link frame
   LinkDistance distance;                  ///< signed distance bounds inside the link (closed links)
   std::vector<Tri> tris;                  ///< faces, link frame
   SphereTree surface;                     ///< every face, link frame (distance fields only)

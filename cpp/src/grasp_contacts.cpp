@@ -70,10 +70,7 @@ Contacts find_contacts(const GraspChecker& checker, const Pose& wrist, const Eig
       double sd = cp.distance;
       if (closed) sd = T.query->signed_distance(p, cp);
       if (sd > gap || sd < -below) continue;
-      // The contact's normal: the target's, or on an edge or corner of it the one of its cone of
-      // normals that opposes the hand's face there (a flat pad on an edge pushes along its own normal).
-      const Vec3 hand_normal = poses[l].linear() * Vec3(L.contact_normals.row(i).transpose());
-      Candidate c{p, cp.point, T.query->contact_normal(cp, -hand_normal), sd, cp.face};
+      Candidate c{p, cp.point, cp.normal, sd, cp.face};
       const Key key = {static_cast<std::int64_t>(l), static_cast<std::int64_t>(std::floor(p.x() / cell)),
                        static_cast<std::int64_t>(std::floor(p.y() / cell)),
                        static_cast<std::int64_t>(std::floor(p.z() / cell))};

@@ -2,7 +2,6 @@
 #include <pairgrasp/surface_query.hpp>
 
 #include "surface_query_internal.hpp"
-#include "nnls.hpp"
 
 #include <pairgrasp/error.hpp>
 
@@ -83,8 +82,6 @@ struct SurfaceQuery::Impl {
   std::vector<Vec3> edge_pn;             // edge pseudo-normals (sum of adjacent face normals)
   std::vector<Vec3> vertex_pn;           // angle-weighted vertex pseudo-normals
   std::vector<char> vertex_fan_ok;       // the vertex's faces form one fan
-  std::vector<int> vertex_face_start;    // faces of vertex v: vertex_face_list[start[v], start[v + 1])
-  std::vector<int> vertex_face_list;
   double tol = 0.0;
   bool closed = false;
   // Throws when the mesh has no inside (what names the calling function).
@@ -215,10 +212,6 @@ SurfaceQuery::Impl::Impl(const Mesh& m) : mesh(m) {
       vertex_fan_ok[v] = ok && visited == static_cast<int>(fs.size());
     }
   }
-  vertex_face_start.assign(V + 1, 0);
-  for (Eigen::Index v = 0; v < V; ++v) vertex_face_start[v + 1] = vertex_face_start[v] + static_cast<int>(vertex_faces[v].size());
-  vertex_face_list.reserve(static_cast<std::size_t>(vertex_face_start[V]));
-  for (const auto& fs : vertex_faces) vertex_face_list.insert(vertex_face_list.end(), fs.begin(), fs.end());
 }
 
 SurfaceQuery::Impl::Hit SurfaceQuery::Impl::closest(const Vec3& p, double max_d) const {
@@ -384,55 +377,6 @@ SurfacePoint SurfaceQuery::closest(const Eigen::Vector3d& p, double max_distance
 }
 
 double SurfaceQuery::distance(const Eigen::Vector3d& p) const { return closest(p).distance; }
-
-Eigen::Vector3d SurfaceQuery::contact_normal(const SurfacePoint& at, const Eigen::Vector3d& towards) const {
-  const Impl& I = *impl_;
-  const Eigen::Index F = I.mesh.faces.rows();
-  if (at.face < 0 || at.face >= F)
-    throw std::invalid_argument("at: face " + std::to_string(at.face) + " is not one of the mesh's " + std::to_string(F) + " faces");
-  check_finite("at.point", at.point);
-  check_finite("towards", towards);
-  if (!(towards.norm() > 0.0)) throw std::invalid_argument("towards: expected a non-zero direction, got 0");
-  // Which edges of the face hold the point (within the surface tolerance): none, one (an edge),
-  // or two (their common corner).
-  std::array<int, 3> corner{};
-  for (int k = 0; k < 3; ++k) corner[k] = I.mesh.faces(at.face, k);
-  std::array<char, 3> on{};
-  int count = 0;
-  for (int k = 0; k < 3; ++k) {
-    const Vec3 a = I.mesh.vertices.row(corner[k]).transpose(), b = I.mesh.vertices.row(corner[(k + 1) % 3]).transpose();
-    const double t = std::clamp((at.point - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
-    on[k] = (a + t * (b - a) - at.point).norm() <= I.tol;
-    count += on[k];
-  }
-  if (count == 0) return I.normals[at.face];
-  // The faces meeting there: those of the corner, or those holding both ends of the edge.
-  auto faces_of = [&](int v) {
-    return std::make_pair(I.vertex_face_list.begin() + I.vertex_face_start[v],
-                          I.vertex_face_list.begin() + I.vertex_face_start[v + 1]);
-  };
-  std::vector<int> faces;
-  if (count >= 2) {
-    const int k = on[0] && on[1] ? 1 : (on[1] && on[2] ? 2 : 0);  // edges k-1 and k share corner k
-    const auto [first, last] = faces_of(corner[k]);
-    faces.assign(first, last);
-  } else {
-    const int k = on[0] ? 0 : (on[1] ? 1 : 2);
-    const auto [first, last] = faces_of(corner[k]);
-    const int other = corner[(k + 1) % 3];
-    for (auto it = first; it != last; ++it)
-      for (int j = 0; j < 3; ++j)
-        if (I.mesh.faces(*it, j) == other) faces.push_back(*it);
-  }
-  if (faces.size() < 2) return I.normals[at.face];
-  // The closest unit vector of the cone the faces' normals span: its projection on the cone.
-  Eigen::MatrixXd A(3, static_cast<Eigen::Index>(faces.size()));
-  for (std::size_t j = 0; j < faces.size(); ++j) A.col(static_cast<Eigen::Index>(j)) = I.normals[faces[j]];
-  const Vec3 d = towards.normalized();
-  const Vec3 y = A * detail::nonnegative_least_squares(A, d);
-  if (!(y.norm() > 1e-9)) return I.normals[at.face];  // towards points away from every normal there
-  return y.normalized();
-}
 
 void SurfaceQuery::Impl::require_closed(const char* what) const {
   if (!closed)

@@ -158,37 +158,6 @@ Contacts contacts_of(const Hand& hand, const std::vector<std::tuple<Vector3d, Ve
 
 }  // namespace
 
-TEST(Grasp, PadsOnABoxEdgePushAlongTheirOwnNormal) {
-  // A 30 mm square prism turned 45 degrees about z: the closing pads meet its two vertical edges at
-  // x = -+15 sqrt(2) mm, and the faces there lie at 45 degrees to the pads. A flat pad on an edge
-  // pushes along its own normal, so the contacts on the edges have the normals -+x (the prism is
-  // held antipodally), not the faces' 45-degree ones.
-  const Hand jaw = th::parallel_jaw();
-  Mesh prism = tmesh::box_mesh(Vector3d(-0.015, -0.015, 0.06), Vector3d(0.015, 0.015, 0.11), 2, "prism");
-  const Eigen::Matrix3d turn = Eigen::AngleAxisd(M_PI / 4, Vector3d::UnitZ()).toRotationMatrix();
-  prism.vertices = (prism.vertices * turn.transpose()).eval();
-  CheckOptions opt;
-  opt.contact_gap = 0.001;
-  const GraspChecker checker(jaw, prism, Mask(), {}, opt);
-  const CloseResult r = close_fingers(checker, Pose::Identity(), dofs1(0.08));
-  ASSERT_EQ(r.reasons[0], StopReason::Contact);
-  const double edge = 0.015 * std::sqrt(2.0);
-  EXPECT_GT(r.dofs[0], 2 * edge);
-  EXPECT_LE(r.dofs[0], 2 * edge + 2 * opt.contact_gap + 1e-12);
-  const Contacts c = find_contacts(checker, Pose::Identity(), r.dofs);
-  int on_edge[2] = {0, 0};
-  for (int k = 0; k < c.points.rows(); ++k) {
-    const Vector3d t = c.target_points.row(k), n = c.normals.row(k);
-    const bool left = c.points(k, 0) < 0;
-    if (std::abs(t.y()) > 1e-12) continue;  // a point of a face near the edge
-    EXPECT_NEAR(std::abs(t.x()), edge, 1e-12);
-    EXPECT_NEAR((n - Vector3d(left ? -1 : 1, 0, 0)).norm(), 0.0, 1e-9) << "contact " << k;
-    ++on_edge[left];
-  }
-  EXPECT_GT(on_edge[0], 0);
-  EXPECT_GT(on_edge[1], 0);
-}
-
 TEST(Grasp, ClosingPushOfTheJawsPadsAndOfAFingerAgainstThePalm) {
   // Parallel jaw on the box: one DOF moves both pads and their pushes (+x and -x) cancel: 1.
   const JawGrasp g;

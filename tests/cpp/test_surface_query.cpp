@@ -299,38 +299,6 @@ TEST(SurfaceQuery, TriangleDistanceToBox) {
                                              Vector3d(0, 0.02, 0.09), 0.005)));
 }
 
-TEST(SurfaceQuery, ContactNormalIsTheNormalConesDirectionNearestTheOtherBody) {
-  const double h = 0.05;
-  const Mesh m = tmesh::box_mesh(Vector3d(-h, -h, -h), Vector3d(h, h, h), 2);
-  const SurfaceQuery q(m);
-  auto normal = [&](const Vector3d& p, const Vector3d& towards) { return q.contact_normal(q.closest(p), towards); };
-  auto near = [](const Vector3d& a, const Vector3d& b) { return (a - b).norm() < 1e-12; };
-  const Vector3d x(1, 0, 0), y(0, 1, 0), z(0, 0, 1);
-  // Inside the +x face: its normal, whatever the other body's.
-  EXPECT_TRUE(near(normal(Vector3d(0.06, 0.013, -0.021), y), x));
-  EXPECT_TRUE(near(normal(Vector3d(0.06, 0.013, -0.021), -x), x));
-  // On the edge x = y = h the normals span the quarter circle from +x to +y: a direction in it is
-  // kept, one beyond it goes to the nearer end, and one with a z part loses it.
-  const Vector3d by_edge(0.06, 0.07, 0.011);
-  EXPECT_TRUE(near(normal(by_edge, Vector3d(1, 2, 0)), Vector3d(1, 2, 0).normalized()));
-  EXPECT_TRUE(near(normal(by_edge, Vector3d(1, -0.5, 0)), x));
-  EXPECT_TRUE(near(normal(by_edge, Vector3d(-0.2, 1, 0)), y));
-  EXPECT_TRUE(near(normal(by_edge, Vector3d(0.3, 0.1, 1)), Vector3d(0.3, 0.1, 0).normalized()));
-  // At the corner (h, h, h) they span the octant: inside kept, outside projected on its faces.
-  const Vector3d by_corner(0.07, 0.06, 0.08);
-  EXPECT_TRUE(near(normal(by_corner, Vector3d(1, 2, 3)), Vector3d(1, 2, 3).normalized()));
-  EXPECT_TRUE(near(normal(by_corner, Vector3d(1, 1, -1)), Vector3d(1, 1, 0).normalized()));
-  EXPECT_TRUE(near(normal(by_corner, Vector3d(-1, -2, 5)), z));
-  // Pointing away from every normal there: the closest face's own normal.
-  const SurfacePoint c = q.closest(by_corner);
-  EXPECT_TRUE(near(q.contact_normal(c, Vector3d(-1, -1, -1)), c.normal));
-  // Bad input.
-  SurfacePoint none;
-  EXPECT_THROW(q.contact_normal(none, x), std::invalid_argument);
-  EXPECT_THROW(q.contact_normal(c, Vector3d::Zero()), std::invalid_argument);
-  EXPECT_THROW(q.contact_normal(c, Vector3d(std::nan(""), 0, 1)), std::invalid_argument);
-}
-
 TEST(SurfaceQuery, BatchesEqualSingleQueriesForAnyThreadCount) {
   const Mesh m = tmesh::icosphere(0.05, 3);
   const SurfaceQuery q(m);

@@ -90,26 +90,6 @@ def test_surface_query_closest_matches_brute_force_on_the_mug():
     np.testing.assert_allclose(q.distance(p), brute_distance(mug, p), atol=1e-12)
 
 
-def test_contact_normals_beside_an_edge_span_the_quarter_circle():
-    # Beside the box's vertical edge x = y = 0.03 its closest point is on the edge, where the normals
-    # are those between +x and +y: a body pressing with outward normal -t gets t's part in that plane
-    # (where t points into the quarter); inside a face it is the face's normal whatever t is.
-    q = pg.SurfaceQuery(pg.load_mesh(MODELS / "targets" / "box.stl"))
-    rng = np.random.default_rng(5)
-    n = 200
-    beside = np.column_stack([0.03 + rng.uniform(0.001, 0.02, n), 0.03 + rng.uniform(0.001, 0.02, n),
-                              rng.uniform(0.01, 0.11, n)])
-    t = np.column_stack([rng.uniform(0.05, 1, n), rng.uniform(0.05, 1, n), rng.uniform(-1, 1, n)])
-    expected = t * [1, 1, 0]
-    expected /= np.linalg.norm(expected, axis=1, keepdims=True)
-    np.testing.assert_allclose(q.contact_normals(beside, t), expected, atol=1e-9)
-    on_face = np.column_stack([0.03 + rng.uniform(0.001, 0.02, n), rng.uniform(-0.025, 0.025, n),
-                               rng.uniform(0.01, 0.11, n)])
-    np.testing.assert_allclose(q.contact_normals(on_face, t), np.tile([1.0, 0, 0], (n, 1)), atol=1e-9)
-    with pytest.raises(ValueError, match="towards"):
-        q.contact_normals(beside, t[:3])
-
-
 def test_ray_cast_matches_slab_intersection():
     lo, hi = np.array([-0.03, -0.03, 0.0]), np.array([0.03, 0.03, 0.12])
     q = pg.SurfaceQuery(pg.load_mesh(MODELS / "targets" / "box.stl"))

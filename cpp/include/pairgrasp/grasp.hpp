@@ -87,10 +87,7 @@ CloseResult close_fingers(const GraspChecker& checker, const Pose& wrist, const 
 struct Contacts {
   Points points;              ///< (C,3) points of the hand's active surfaces, metres
   Points target_points;       ///< (C,3) the closest target surface points, metres
-  /// (C,3) unit outward normals of the target at those points: the face's normal, or on an edge or
-  /// corner the normal of its cone nearest the reverse of the hand's face normal
-  /// (SurfaceQuery::contact_normal())
-  Points normals;
+  Points normals;             ///< (C,3) unit outward normals of the target at those points (face normals)
   Eigen::VectorXd distances;  ///< (C) signed gaps, metres: > 0 apart, < 0 inside the target
   Eigen::VectorXi faces;      ///< (C) target faces holding target_points
   std::vector<int> links;     ///< (C) indices into Hand::links()

@@ -82,14 +82,6 @@ class SurfaceQuery {
                        double max_distance = std::numeric_limits<double>::infinity()) const;
   /// Unsigned distance from p to the surface, metres.
   double distance(const Eigen::Vector3d& p) const;
-  /// The outward normal at `at` (a point of face `at.face`, as closest() returns it) nearest to
-  /// the direction `towards` (any length). Inside a face it is the face's normal. On an edge or at
-  /// a corner the surface has a cone of normals, spanned by those of the faces meeting there, and
-  /// the result is the unit vector of that cone nearest to `towards` (its projection on the cone):
-  /// a contact's normal when the other body's outward normal there is -towards, as a flat finger
-  /// pad pressing on an edge of the object pushes along the pad's own normal. Throws
-  /// std::invalid_argument for a face out of range, a non-finite point or a zero direction.
-  Eigen::Vector3d contact_normal(const SurfacePoint& at, const Eigen::Vector3d& towards) const;
   /// Whether p lies inside the solid (surface included). Throws std::invalid_argument when the
   /// mesh is not closed or p is not finite.
   bool inside(const Eigen::Vector3d& p) const;
