@@ -4,16 +4,20 @@
 #include <pairgrasp/evaluation.hpp>
 #include <pairgrasp/grasp.hpp>
 
+#include <Eigen/QR>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
+#include <random>
 #include <set>
 #include <stdexcept>
 #include <tuple>
+#include <vector>
 
 #include "test_hands.hpp"
 #include "test_meshes.hpp"
+#include "../../cpp/src/nnls.hpp"
 
 using namespace pairgrasp;
 using Eigen::Vector3d;
@@ -230,6 +234,38 @@ TEST(Grasp, ClosingFrictionOfTheJawsPadsAndOfAFingerAgainstThePalmIsTheTangentOf
   Contacts wrong = contacts_of(bh, {{p, -u, "bh_f3_dist"}});
   wrong.links[0] = 99;
   EXPECT_THROW(closing_friction(bh, wrist, q, wrong, Vector3d::Zero()), std::invalid_argument);
+}
+
+TEST(Grasp, NonnegativeLeastSquaresMatchesAScanOfEveryActiveSet) {
+  // The x >= 0 minimising |A x - b| is the least-squares solution on some set of columns with
+  // every coefficient >= 0; scanning all 2^n sets finds the least residual, which the active-set
+  // method must reach. Tall, square and wide systems, with b inside and outside the cone of A.
+  std::mt19937 rng(7);
+  std::normal_distribution<double> normal;
+  for (int trial = 0; trial < 60; ++trial) {
+    const int rows = 3 + trial % 5, cols = 1 + trial % 8;
+    Eigen::MatrixXd A(rows, cols);
+    Eigen::VectorXd b(rows);
+    for (int i = 0; i < rows; ++i) {
+      for (int j = 0; j < cols; ++j) A(i, j) = normal(rng);
+      b[i] = normal(rng);
+    }
+    if (trial % 3 == 0) b = A * Eigen::VectorXd::Random(cols).cwiseAbs();  // inside the cone
+    double best = b.norm();  // the empty set
+    for (int mask = 1; mask < (1 << cols); ++mask) {
+      std::vector<int> set;
+      for (int j = 0; j < cols; ++j)
+        if (mask >> j & 1) set.push_back(j);
+      Eigen::MatrixXd As(rows, static_cast<Eigen::Index>(set.size()));
+      for (std::size_t k = 0; k < set.size(); ++k) As.col(static_cast<Eigen::Index>(k)) = A.col(set[k]);
+      const Eigen::VectorXd z = As.colPivHouseholderQr().solve(b);
+      if ((z.array() >= 0.0).all()) best = std::min(best, (As * z - b).norm());
+    }
+    const Eigen::VectorXd x = detail::nonnegative_least_squares(A, b);
+    ASSERT_EQ(x.size(), cols);
+    EXPECT_TRUE((x.array() >= 0.0).all()) << "trial " << trial;
+    EXPECT_NEAR((A * x - b).norm(), best, 1e-9 * (1.0 + b.norm())) << "trial " << trial;
+  }
 }
 
 TEST(Grasp, ContactsOnOccludedFacesAreOnlyCounted) {
