@@ -5,7 +5,6 @@
 
 #include "nnls.hpp"
 
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
