@@ -31,6 +31,7 @@ void check_contact_links(const Hand& hand, const Contacts& contacts) {
     if (contacts.links[c] < 0 || contacts.links[c] >= n)
       throw std::invalid_argument("contacts: link index " + std::to_string(contacts.links[c]) + " of contact " +
                                   std::to_string(c) + " is not one of the hand's " + std::to_string(n) + " links");
+  if (!contacts.points.allFinite()) throw std::invalid_argument("points: expected finite coordinates (m)");
 }
 
 // How one closing DOF moves the contacts: a finite-difference step of the DOF and each contact's
@@ -47,6 +48,7 @@ struct DofMotion {
 std::vector<DofMotion> closing_motions(const Hand& hand, const Pose& wrist, const Eigen::VectorXd& dofs,
                                        const Contacts& contacts) {
   const Eigen::VectorXi dirs = closing_directions(hand, dofs);  // validates dofs
+  check_rigid(wrist, "wrist_pose");
   check_contact_links(hand, contacts);
   const std::vector<Pose> p0 = hand.link_poses(dofs);
   const Eigen::VectorXd lo = hand.dof_lower(), hi = hand.dof_upper();
@@ -124,10 +126,8 @@ double closing_friction(const Hand& hand, const Pose& wrist, const Eigen::Vector
     throw std::invalid_argument("tolerance: expected a finite number > 0, got " + std::to_string(options.tolerance));
   if (options.edges < 3) throw std::invalid_argument("edges: expected at least 3, got " + std::to_string(options.edges));
   if (!center.allFinite()) throw std::invalid_argument("center: expected finite coordinates (m)");
-  if (!wrist.matrix().allFinite()) throw std::invalid_argument("wrist_pose: expected finite values");
-  if (!contacts.points.allFinite()) throw std::invalid_argument("points: expected finite coordinates (m)");
   const Eigen::Index C = contacts.points.rows();
-  std::vector<DofMotion> motions = closing_motions(hand, wrist, dofs, contacts);  // validates dofs and links
+  std::vector<DofMotion> motions = closing_motions(hand, wrist, dofs, contacts);  // validates the rest
   motions.erase(std::remove_if(motions.begin(), motions.end(),
                                [](const DofMotion& m) {
                                  return std::none_of(m.moved.begin(), m.moved.end(), [](char c) { return c != 0; });

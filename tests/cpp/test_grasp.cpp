@@ -188,6 +188,14 @@ TEST(Grasp, ClosingPushOfTheJawsPadsAndOfAFingerAgainstThePalm) {
     EXPECT_NEAR(push.opposition, std::cos(a), 1e-6) << "a = " << a;
     EXPECT_NEAR(push.drive, 1.0, 1e-6);  // the finger's contact normal is its closing motion
   }
+  // Bad input: a wrist that is not rigid, a contact point that is not finite.
+  const Contacts one = contacts_of(bh, {{p, -u, "bh_f3_dist"}});
+  Pose sheared = wrist;
+  sheared.matrix()(0, 1) += 0.1;
+  EXPECT_THROW(closing_push(bh, sheared, q, one), std::invalid_argument);
+  Contacts nan_point = one;
+  nan_point.points(0, 0) = std::nan("");
+  EXPECT_THROW(closing_push(bh, wrist, q, nan_point), std::invalid_argument);
   // No closing DOF moves a contact (the palm only): -1.
   const ClosingPush none = closing_push(bh, wrist, q, contacts_of(bh, {{p, u, "bh_palm"}}));
   EXPECT_EQ(none.opposition, -1.0);

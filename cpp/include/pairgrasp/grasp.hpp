@@ -115,8 +115,9 @@ struct ClosingPush {
 /// The ClosingPush of a grasp's contacts (target frame) at (wrist, dofs): motion by forward
 /// kinematics (finite differences). In the physics check, grasps whose fingers push the object
 /// out while closing or once the table is gone score low (docs/physics.md). Throws
-/// std::invalid_argument for a bad DOF vector ("dofs: ..."), and for contacts whose sizes or link
-/// indices do not fit the hand ("contacts: ...").
+/// std::invalid_argument for a bad DOF vector ("dofs: ..."), a wrist that is not rigid
+/// ("wrist_pose: ..."), contacts whose sizes or link indices do not fit the hand ("contacts: ...")
+/// and non-finite points ("points: ...").
 ClosingPush closing_push(const Hand& hand, const Pose& wrist, const Eigen::VectorXd& dofs, const Contacts& contacts);
 
 /// Options of closing_friction().
@@ -137,8 +138,8 @@ struct ClosingFrictionOptions {
 /// Returns a value in [0, mu_max] (0: the normal forces alone balance), +infinity when mu_max does
 /// not balance them (a finger pushing the object away alone), NaN when no closing DOF moves a
 /// contact. Each trial coefficient is a non-negative least-squares feasibility test. Throws
-/// std::invalid_argument for a bad DOF vector ("dofs: ..."), a link index out of range, non-finite
-/// points, normals or center, and bad options (naming the field).
+/// std::invalid_argument for a bad DOF vector ("dofs: ..."), a wrist that is not rigid, a link
+/// index out of range, non-finite points, normals or center, and bad options (naming the field).
 double closing_friction(const Hand& hand, const Pose& wrist, const Eigen::VectorXd& dofs, const Contacts& contacts,
                         const Eigen::Vector3d& center, const ClosingFrictionOptions& options = {});
 
