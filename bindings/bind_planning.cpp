@@ -573,6 +573,8 @@ void bind_planning(pyb::module_& m) {
       .def_readonly("backoff", &PlannerSetup::backoff, "Largest back-off when settling (m).")
       .def_readonly("reach", &PlannerSetup::reach, "Largest distance of a constellation sample from the wrist (m).")
       .def_readonly("field_cell", &PlannerSetup::field_cell, "Cell edge of the checker's distance fields (m).")
+      .def_readonly("distance_fields", &PlannerSetup::distance_fields,
+                    "Whether the checker works on distance fields (not for an antipodal jaw, checked exactly).")
       .def_readonly("contact_span", &PlannerSetup::contact_span,
                     "Largest distance between two points of the active surfaces over the DOF range, plus the edge (m).")
       .def_readonly("free_faces", &PlannerSetup::free_faces, "Free faces of the target.")

@@ -325,6 +325,34 @@ def test_antipodal_poses_per_sample_counts_grasp_lines(antipodal_jaw):
     assert r.counts["aligned_poses"] == expect > 0
 
 
+def _depth_in_box(points, lo, hi):
+    """How deep (m) each point lies inside the axis-aligned box [lo, hi] (<= 0: outside)."""
+    return np.minimum(points - lo, hi - points).min(axis=1)
+
+
+def test_a_jaw_is_checked_exactly_and_its_grasps_clear_the_box(antipodal_jaw):
+    """A jaw's antipodal search builds no distance field (its few candidates cost less exactly), the
+    Barrett hand's per-link search does; the jaw's returned grasps penetrate the box by no more than
+    the depth tolerance, measured on the link meshes' vertices against the box's own faces."""
+    assert not antipodal_jaw.core.setup.distance_fields
+    assert antipodal_jaw.core.checker.distance_field_bytes == 0
+    barrett = pg.Planner(str(BARRETT), str(BOX), edge=0.008)
+    assert barrett.core.setup.distance_fields and barrett.core.checker.distance_field_bytes > 0
+    r = antipodal_jaw.plan(progress=False)
+    assert r.grasps and r.grasps[0].force_closure
+    lo, hi = np.asarray(antipodal_jaw.target.bounds)
+    hand = antipodal_jaw.hand
+    tol = antipodal_jaw.core.setup.depth_tolerance
+    for g in r.grasps:
+        poses = hand.link_transforms(g.dofs)
+        for link in hand.links:
+            if not len(link.mesh.vertices):
+                continue
+            T = g.wrist_pose @ np.asarray(poses[link.name])
+            v = np.asarray(link.mesh.vertices) @ T[:3, :3].T + T[:3, 3]
+            assert _depth_in_box(v, lo, hi).max() <= tol + 1e-9, (g.rank, link.name)
+
+
 def test_antipodal_alignment_of_a_hand_that_is_no_jaw_is_refused_by_name():
     with pytest.raises(ValueError, match=r"^constellation: 'antipodal' needs a parallel jaw .* has 7 per-link samples"):
         pg.Planner(str(BARRETT), str(BOX), constellation="antipodal")

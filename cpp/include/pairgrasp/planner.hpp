@@ -63,6 +63,7 @@ struct PlannerOptions {
   std::optional<double> backoff;
   /// Cell edge of the checker's distance fields (m; CheckOptions::field_cell); unset: h / 5 but at
   /// least 1 mm (1 mm at the default 5 mm edge and on smaller targets; coarser when h is coarser).
+  /// Unused where the checker has no fields (PlannerSetup::distance_fields).
   std::optional<double> field_cell;
   /// Memory budget of the target's distance fields (bytes), checked on an estimate before they
   /// are built (BudgetError past it).
@@ -87,6 +88,11 @@ struct PlannerSetup {
   double backoff = 0.0;          ///< m
   double reach = 0.0;            ///< largest distance of a constellation sample from the wrist (m)
   double field_cell = 0.0;       ///< cell edge of the checker's distance fields (m)
+  /// Whether the checker works on distance fields (CheckOptions::use_distance_field): yes for a
+  /// per-link or area search, no for an antipodal one: a jaw's few hundred candidates are checked
+  /// exactly in less time than the fields take to build (the collision flags are the same either
+  /// way; depths are then exact instead of within (√3/2)·field_cell).
+  bool distance_fields = true;
   /// Largest distance between two points of the active surfaces over the DOF range (the diagonal
   /// of their bounding box in the wrist frame, at the corners and middles of every DOF), plus h (m).
   double contact_span = 0.0;
