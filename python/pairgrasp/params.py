@@ -60,6 +60,7 @@ class PlanParams:
         gap: contact gap (m).
         field_cell: cell edge of the grasp checker's distance fields (m); None: h / 5 but at least
             1 mm (1 mm at the default 5 mm edge and on small targets, coarser when h is coarser).
+            A parallel jaw's antipodal search builds no fields (it is checked exactly).
         max_field_memory: budget of those fields (GB), checked on an estimate before they are
             built: a target over it is refused at once, naming this field.
         backoff: largest back-off along the approach axis when settling (m); None: the hand's
