@@ -1,6 +1,7 @@
 #include <pairgrasp/error.hpp>
 #include <pairgrasp/pair_index.hpp>
 
+#include "pair_index_internal.hpp"
 #include "surface_feature.hpp"
 #include "surface_grid.hpp"
 
@@ -297,16 +298,18 @@ PairEstimate estimate_pairs(const Mesh& mesh, double d_max, const Mask& free_fac
   return e;
 }
 
+// `kept` (when not null): the tessellation at the edge returned.
 double suggest_edge_from(const Mesh& mesh, double d_max, std::size_t max_pairs, const Mask& free_faces,
-                         const PairEstimate& est) {
+                         const PairEstimate& est, std::optional<UnitFacets>* kept = nullptr) {
   const double n_fit = std::max(1.0, std::sqrt(2.0 * double(max_pairs) / est.fraction));
   double edge = std::sqrt(est.area / (kFacetAreaPerEdge2 * n_fit));
   // Check and refine: the pair count scales about as edge^-4. Keep the finest edge that fits.
   double best = std::numeric_limits<double>::infinity();
   for (int iter = 0; iter < 12; ++iter) {
-    const UnitFacets f = tessellate(mesh, edge, free_faces);
+    UnitFacets f = tessellate(mesh, edge, free_faces);
     const double pairs = double(count_pairs(f.points, d_max, f.free));
     if (pairs <= double(max_pairs)) {
+      if (edge < best && kept) *kept = std::move(f);
       best = std::min(best, edge);
       if (pairs >= 0.95 * double(max_pairs)) break;
     }
@@ -710,6 +713,11 @@ std::size_t count_pairs(const Points& points, double d_max, const Mask& free, in
 }
 
 double suggest_edge(const Mesh& mesh, double d_max, std::size_t max_pairs, const Mask& free_faces, double min_edge) {
+  return detail::suggest_edge(mesh, d_max, max_pairs, free_faces, min_edge, nullptr);
+}
+
+double detail::suggest_edge(const Mesh& mesh, double d_max, std::size_t max_pairs, const Mask& free_faces,
+                            double min_edge, std::optional<UnitFacets>* facets) {
   check_d_max(d_max);
   if (max_pairs == 0) throw std::invalid_argument("max_pairs: expected at least 1, got 0");
   if (!std::isfinite(min_edge) || min_edge < 0.0)
@@ -721,11 +729,18 @@ double suggest_edge(const Mesh& mesh, double d_max, std::size_t max_pairs, const
   std::optional<PairEstimate> est;
   if (min_edge > 0.0 && all.pairs(min_edge) > kFarOver * double(max_pairs)) est = estimate_pairs(mesh, d_max, free_faces);
   if (min_edge > 0.0 && !(est && est->pairs(min_edge) > kFarOver * double(max_pairs))) {
-    const UnitFacets f = tessellate(mesh, min_edge, free_faces);
-    if (count_pairs(f.points, d_max, f.free) <= max_pairs) return min_edge;
+    UnitFacets f = tessellate(mesh, min_edge, free_faces);
+    if (count_pairs(f.points, d_max, f.free) <= max_pairs) {
+      if (facets) *facets = std::move(f);
+      return min_edge;
+    }
   }
   if (!est) est = estimate_pairs(mesh, d_max, free_faces);
-  return std::max(min_edge, suggest_edge_from(mesh, d_max, max_pairs, free_faces, *est));
+  std::optional<UnitFacets> kept;
+  const double best = suggest_edge_from(mesh, d_max, max_pairs, free_faces, *est, facets ? &kept : nullptr);
+  if (best < min_edge) return min_edge;
+  if (facets) *facets = std::move(kept);
+  return best;
 }
 
 namespace {
@@ -779,13 +794,19 @@ void check_pair_estimate(const Mesh& mesh, double edge, const Mask& free_faces, 
 
 TargetIndex build_target_index(const Mesh& mesh, double edge, const Mask& free_faces,
                                const PairIndexOptions& options) {
+  return detail::build_target_index(mesh, edge, free_faces, options, std::nullopt);
+}
+
+TargetIndex detail::build_target_index(const Mesh& mesh, double edge, const Mask& free_faces,
+                                       const PairIndexOptions& options, std::optional<UnitFacets> given) {
   check_build_arguments(edge, options);
   if (edge == 0.0) {
     edge = suggest_edge_from(mesh, options.d_max, pair_limit(options.max_pairs), free_faces,
                              estimate_pairs(mesh, options.d_max, free_faces));
+    given.reset();  // made at another edge
   }
   refuse_far_over(mesh, edge, free_faces, options);
-  UnitFacets facets = tessellate(mesh, edge, free_faces);
+  UnitFacets facets = given ? std::move(*given) : tessellate(mesh, edge, free_faces);
   try {
     PairIndex index(facets.points, facets.normals, facets.free, options);
     return TargetIndex{std::move(facets), std::move(index)};

@@ -5,6 +5,7 @@
 #include <pairgrasp/features.hpp>
 #include <pairgrasp/graspable.hpp>
 
+#include "pair_index_internal.hpp"
 #include "thread_pool.hpp"
 
 #include <algorithm>
@@ -239,8 +240,10 @@ std::string degrees(double radians) {
 }
 
 // resolve_planner(), and in `index_free` the faces whose unit facets the index pairs: the free
-// faces that may hold a contact of a force-closure grasp (`free` itself when they all may).
-PlannerSetup resolve(const Hand& hand, const Mesh& target, const Mask& free, const PlannerOptions& o, Mask& index_free) {
+// faces that may hold a contact of a force-closure grasp (`free` itself when they all may); in
+// `facets` (when not null) the unit facets at the edge suggested, when suggesting made them.
+PlannerSetup resolve(const Hand& hand, const Mesh& target, const Mask& free, const PlannerOptions& o, Mask& index_free,
+                     std::optional<UnitFacets>* facets = nullptr) {
   validate(o);
   PlannerSetup s;
   std::tie(s.mode, s.antipodal) = choose_mode(hand, o.constellation);
@@ -279,7 +282,7 @@ PlannerSetup resolve(const Hand& hand, const Mesh& target, const Mask& free, con
         "smaller target or more of it free, or a larger mu");
   }
   index_free = g.graspable == g.free ? free : g.faces;
-  if (!o.edge) edge = suggest_edge(target, s.d_max, o.max_pairs, index_free, edge);
+  if (!o.edge) edge = detail::suggest_edge(target, s.d_max, o.max_pairs, index_free, edge, facets);
   s.edge = edge;
   if (s.mode == ConstellationMode::Area) {
     if (o.spacing) {
@@ -354,7 +357,8 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& sce
   const Mesh& target = surface.mesh;
   const Mask& free = surface.free;
   Mask index_free;
-  const PlannerSetup setup = resolve(hand, target, free, options, index_free);
+  std::optional<UnitFacets> facets;  // the index's, when suggesting the edge made them
+  const PlannerSetup setup = resolve(hand, target, free, options, index_free, &facets);
   std::vector<Obstacle> obstacles = scene.obstacles;
   if (scene.occlusion.support)
     obstacles.push_back(Obstacle{"support", support_box(*scene.occlusion.support, target,
@@ -390,7 +394,7 @@ GraspPlanner::GraspPlanner(const Hand& hand, const Mesh& given, const Scene& sce
   detail::parallel_for(2, options.threads, [&](std::size_t k) {
     try {
       if (k == 0) {
-        index.emplace(build_target_index(target, setup.edge, index_free, io));
+        index.emplace(detail::build_target_index(target, setup.edge, index_free, io, std::move(facets)));
       } else {
         checker = std::make_unique<GraspChecker>(hand, surface, given, obstacles, co);
       }

@@ -4,6 +4,7 @@
 #include <pairgrasp/features.hpp>
 #include <pairgrasp/pair_index.hpp>
 
+#include "../../cpp/src/pair_index_internal.hpp"
 #include "surface_test_meshes.hpp"
 #include "test_scale.hpp"
 
@@ -440,6 +441,35 @@ TEST(SuggestEdge, FinestEdgeThatFitsTheBudget) {
   EXPECT_DOUBLE_EQ(t.facets.edge, edge);
   EXPECT_EQ(t.index.size(), pairs);
   EXPECT_EQ(t.index.points(), t.facets.points);
+}
+
+// The planner's handover: the unit facets suggesting an edge made are the tessellation at that edge,
+// and the index built from them is the one build_target_index() builds by tessellating.
+TEST(SuggestEdge, HandsOverTheTessellationOfTheEdgeItReturns) {
+  const Mesh m = icosphere(0.05, 3);
+  const std::size_t budget = 200000;
+  Mask free(m.faces.rows());
+  for (Eigen::Index f = 0; f < free.size(); ++f) free[f] = m.vertices(m.faces(f, 0), 2) > -0.02;
+  PairIndexOptions o;
+  o.d_max = 0.2;
+  o.max_pairs = budget;
+  const double fits = suggest_edge(m, 0.2, budget, free);
+  // Both ways of returning: the finest edge wanted fits (counted there), or the budget decides.
+  for (const double wanted : {1.2 * fits, fits / 1.05, 0.0}) {
+    std::optional<UnitFacets> handed;
+    const double edge = detail::suggest_edge(m, 0.2, budget, free, wanted, &handed);
+    EXPECT_EQ(edge, suggest_edge(m, 0.2, budget, free, wanted));
+    ASSERT_TRUE(handed.has_value()) << wanted;
+    const UnitFacets made = tessellate(m, edge, free);
+    EXPECT_EQ(handed->edge, made.edge);
+    EXPECT_EQ(handed->points, made.points);
+    EXPECT_EQ(handed->normals, made.normals);
+    EXPECT_EQ(handed->free, made.free);
+    const TargetIndex from_handed = detail::build_target_index(m, edge, free, o, std::move(handed));
+    const TargetIndex built = build_target_index(m, edge, free, o);
+    EXPECT_EQ(from_handed.index.pairs(), built.index.pairs());
+    EXPECT_EQ(from_handed.index.features(), built.index.features());
+  }
 }
 
 TEST(BuildTargetIndex, RefusedEdgeNamesTheEdgeThatFits) {
